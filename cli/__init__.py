@@ -1,0 +1,1 @@
+"""The ``motionlib`` command-line application (a thin layer over the library)."""
