@@ -28,6 +28,19 @@ from .model import CraneModel, limits_arrays, load_crane_model
 
 NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.arccos, sqrt=np.sqrt)
 
+# Rounding tolerances of ik/ik_batch: a point fk(q) with q on the workspace boundary (arm stretched
+# out, cos_elbow = 1) or on a joint limit must invert, though rounding puts it 1e-16 outside.
+IK_COS_TOL = 1e-12  # on cos_elbow: about 1e-12 m beyond reach
+IK_LIMIT_TOL = 1e-7  # rad or m beyond a joint limit (acos near 1 amplifies rounding to ~sqrt(eps)); clipped
+
+
+def _acos_within_tol(x: Any) -> Any:
+    """arccos that takes |x| up to 1 + IK_COS_TOL as +-1 (NaN beyond, as np.arccos)."""
+    return np.arccos(np.where(np.abs(x) <= 1.0 + IK_COS_TOL, np.clip(x, -1.0, 1.0), x))
+
+
+_IK_OPS = SimpleNamespace(**{**vars(NUMPY_OPS), "acos": _acos_within_tol})
+
 
 @dataclass(frozen=True)
 class Capsule:
@@ -133,6 +146,12 @@ class Crane:
         jib = boom @ _trans(m.boom_length, 0.0, 0.0) @ _rot_y(-q[2])
         telescope = jib @ _trans(m.jib_length + q[3], 0.0, m.telescope_offset)
         return {"base": base, "slew": slew, "boom": boom, "jib": jib, "telescope": telescope, "tip": telescope.copy()}
+
+    def to_urdf(self) -> str:
+        """The crane as URDF text (see :func:`motionlib.urdf.crane_to_urdf`)."""
+        from .urdf import crane_to_urdf
+
+        return crane_to_urdf(self)
 
     # ------------------------------------------------------------ Jacobian
     def jacobian(self, q: Any) -> np.ndarray:
@@ -243,16 +262,16 @@ class Crane:
         rho = radial - self.model.boom_pivot_offset
         zeta = p[2] - self.model.column_height
         with np.errstate(invalid="ignore"):
-            q2, q3, cos_elbow = self.planar_ik(rho, zeta, q4)
+            q2, q3, cos_elbow = self.planar_ik(rho, zeta, q4, ops=_IK_OPS)
         dist = float(np.hypot(rho, zeta))
-        if cos_elbow > 1.0:
+        if cos_elbow > 1.0 + IK_COS_TOL:
             lo, hi = self.pivot_distance_range(q4)
             _, hi_any = self.pivot_distance_range(self.q_max[3])
             raise UnreachableError(
                 f"{where}: beyond reach: {dist:.3f} m from the boom pivot, the crane reaches {hi:.3f} m "
                 f"with telescope {q4:.3f} m ({hi_any:.3f} m fully extended)"
             )
-        if cos_elbow < -1.0:
+        if cos_elbow < -1.0 - IK_COS_TOL:
             lo, _ = self.pivot_distance_range(q4)
             raise UnreachableError(
                 f"{where}: too close to the column: {dist:.3f} m from the boom pivot, the crane needs at least "
@@ -260,11 +279,11 @@ class Crane:
             )
         q = np.array([q1, q2, q3, q4], dtype=np.float64)
         for i, joint in ((1, "q2 (boom)"), (2, "q3 (jib)")):
-            if not self.q_min[i] <= q[i] <= self.q_max[i]:
+            if not self.q_min[i] - IK_LIMIT_TOL <= q[i] <= self.q_max[i] + IK_LIMIT_TOL:
                 raise UnreachableError(
                     f"{where}: joint limit {joint}: needs {q[i]:.3f} rad, limits [{self.q_min[i]}, {self.q_max[i]}] rad"
                 )
-        return q
+        return np.clip(q, self.q_min, self.q_max)
 
     def ik_batch(self, p: np.ndarray, telescope: np.ndarray, q1_ref: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Vectorised :meth:`ik` without exceptions.
@@ -291,9 +310,10 @@ class Crane:
         rho = np.hypot(p[:, 0], p[:, 1]) - self.model.boom_pivot_offset
         zeta = p[:, 2] - self.model.column_height
         with np.errstate(invalid="ignore"):
-            q2, q3, cos_elbow = self.planar_ik(rho, zeta, q4)
+            q2, q3, cos_elbow = self.planar_ik(rho, zeta, q4, ops=_IK_OPS)
         q = np.stack([q1, q2, q3, q4], axis=1)
-        ok = (np.abs(cos_elbow) <= 1.0) & self.within_limits(q)
+        ok = (np.abs(cos_elbow) <= 1.0 + IK_COS_TOL) & self.within_limits(q, IK_LIMIT_TOL)
+        q[ok] = np.clip(q[ok], self.q_min, self.q_max)
         return q, ok
 
     def _slew_branch(self, heading: float, q1_ref: float) -> float | None:
