@@ -8,7 +8,7 @@ import click
 
 from motionlib.checks import parse_csv_floats
 from motionlib.kinematics import Crane
-from motionlib.planner import PlanOptions, Planner
+from motionlib.planner import Planner, PlanOptions
 from motionlib.scene import Scene
 from motionlib.trajectory import save_plan
 
@@ -64,7 +64,10 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
     if as_json:
         emit_json(summary)
         return
-    click.echo(f"trajectory: {summary['duration_s']:.2f} s over {summary['path_length_m']:.2f} m ({summary['profile']} telescope)")
+    click.echo(
+        f"trajectory: {summary['duration_s']:.2f} s over {summary['path_length_m']:.2f} m"
+        f" ({summary['profile']} telescope profile)"
+    )
     for name in ("constant", "linear"):
         value = result.baselines[name]
         click.echo(f"  baseline, {name} telescope: " + (f"{value:.2f} s" if value is not None else "infeasible"))

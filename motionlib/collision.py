@@ -191,6 +191,8 @@ class CollisionChecker:
         self.grapple = _MovingCapsule("grapple", hanging[0].radius + self.margin)
         self.log = _MovingCapsule("log", hanging[1].radius + self.margin)
         self._hanging = {False: (self.grapple,), True: (self.grapple, self.log)}
+        self._tip_radial = 0.0  # horizontal distance (m) of the tip last placed from the slewing axis
+        # farthest horizontal reach (m) of the (inflated) hanging parts from the tip
         self._hang_reach = {
             loaded: max(math.hypot(o[0], o[1]) + part.radius for part in parts for o in self._hang_offsets[part.name])
             for loaded, parts in self._hanging.items()
@@ -273,6 +275,7 @@ class CollisionChecker:
         return self._arm_parts[loaded]
 
     def _place_hanging(self, x: float, y: float, z: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
+        self._tip_radial = math.hypot(x, y)
         ux, uy = self._heading(x, y)
         parts = self._hanging[loaded]
         for part in parts:
@@ -309,11 +312,8 @@ class CollisionChecker:
         return data.result.is_collision
 
     def _hanging_hits_column(self, loaded: bool) -> bool:
-        tip = self.grapple
-        x = 0.5 * (tip.a[0] + tip.b[0])
-        y = 0.5 * (tip.a[1] + tip.b[1])
-        if math.hypot(x, y) > self._hang_reach[loaded] + self._column_radius + self.margin:
-            return False  # cheap bound: too far from the slewing axis to touch the column
+        if self._tip_radial > self._hang_reach[loaded] + self._column_radius:
+            return False  # cheap bound: the tip is too far from the slewing axis for a hanging part to reach it
         column = self._column_self.obj
         return any(fcl.collide(part.obj, column, _COLLIDE_REQUEST) for part in self._hanging[loaded])
 

@@ -70,6 +70,8 @@ class Crane:
         Joint acceleration limits (symmetric).
     """
 
+    REACH_TELESCOPE_SAMPLES = 9  # telescope extensions tried by :meth:`reachable`
+
     def __init__(self, model: CraneModel):
         self.model = model
         lim = limits_arrays(model)
@@ -78,6 +80,7 @@ class Crane:
         self.qd_min = lim["qd_min"]
         self.qd_max = lim["qd_max"]
         self.qdd_max = lim["qdd_max"]
+        self._reach_grid = np.linspace(self.q_min[3], self.q_max[3], self.REACH_TELESCOPE_SAMPLES)
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> Crane:
@@ -316,6 +319,32 @@ class Crane:
         q[ok] = np.clip(q[ok], self.q_min, self.q_max)
         return q, ok
 
+    def reachable(self, p_tip: np.ndarray) -> bool:
+        """True when some telescope extension reaches ``p_tip`` (3,) within all joint limits.
+
+        Tries :attr:`REACH_TELESCOPE_SAMPLES` extensions evenly spread over the
+        stroke with the closed-form IK (a found solution is a proof of
+        reachability; a point reachable only within a sliver of the stroke may be
+        missed). No input checks: this is the planner's hot path.
+        """
+        grid = self._reach_grid
+        x, y, z = float(p_tip[0]), float(p_tip[1]), float(p_tip[2])
+        heading = np.arctan2(y, x)
+        if not any(self.q_min[0] <= heading + k <= self.q_max[0] for k in (-2 * np.pi, 0.0, 2 * np.pi)):
+            return False
+        rho = np.hypot(x, y) - self.model.boom_pivot_offset
+        zeta = z - self.model.column_height
+        with np.errstate(invalid="ignore"):
+            q2, q3, cos_elbow = self.planar_ik(rho, zeta, grid, ops=_IK_OPS)
+        ok = (
+            (np.abs(cos_elbow) <= 1.0 + IK_COS_TOL)
+            & (q2 >= self.q_min[1] - IK_LIMIT_TOL)
+            & (q2 <= self.q_max[1] + IK_LIMIT_TOL)
+            & (q3 >= self.q_min[2] - IK_LIMIT_TOL)
+            & (q3 <= self.q_max[2] + IK_LIMIT_TOL)
+        )
+        return bool(ok.any())
+
     def _slew_branch(self, heading: float, q1_ref: float) -> float | None:
         candidates = [heading + 2.0 * np.pi * k for k in (-1, 0, 1)]
         inside = [c for c in candidates if self.q_min[0] <= c <= self.q_max[0]]
@@ -361,10 +390,13 @@ class Crane:
         """The grapple (and carried log) hanging at rest below the tip.
 
         The grapple is a capsule from the tip down to ``grapple_length`` below it.
-        A carried log (000 section 3.3) is held horizontally in the grapple, across
-        the boom plane (perpendicular to the tip's heading from the slewing axis):
-        the usual way logs are carried. Swing is not included: planning adds a
-        clearance margin instead.
+        A carried log (000 section 3.3) is held horizontally in the grapple, in the
+        boom plane (along the tip's heading from the slewing axis): over the load
+        bunk, which lies along x behind the crane, that is the log aligned with the
+        bunk, as it must be to be released between the stakes (and with the lab
+        target area, 000 section 3.3: logs "re-oriented to be aligned with the
+        target area"). The rotator angle is not planned. Swing is not included:
+        planning adds a clearance margin instead.
         """
         p = check_vector(p_tip, 3, "p_tip")
         m = self.model
@@ -374,11 +406,11 @@ class Crane:
         caps = [Capsule("grapple", top, bottom, min(r, m.grapple_length / 2))]
         if loaded:
             heading = np.arctan2(p[1], p[0])
-            across = np.array([-np.sin(heading), np.cos(heading), 0.0])
+            along = np.array([np.cos(heading), np.sin(heading), 0.0])
             log_r = m.log_diameter / 2
             centre = p - np.array([0.0, 0.0, m.grapple_length - log_r])
             half = max(m.log_length / 2 - log_r, 0.0)
-            caps.append(Capsule("log", centre - half * across, centre + half * across, log_r))
+            caps.append(Capsule("log", centre - half * along, centre + half * along, log_r))
         return caps
 
 

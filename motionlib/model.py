@@ -124,7 +124,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
 
     jsec = top.section("joints")
     joints = []
-    for jname, jtype in zip(JOINT_NAMES, JOINT_TYPES):
+    for jname, jtype in zip(JOINT_NAMES, JOINT_TYPES, strict=True):
         j = jsec.section(jname)
         lower = j.number("lower")
         upper = j.number("upper")

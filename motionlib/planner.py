@@ -147,21 +147,18 @@ class Planner:
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
         self._exact_checker = CollisionChecker(crane, scene, margin=0.0)
         self.limits = limits_for(crane)
-        self._q4_grid = np.linspace(crane.q_min[3], crane.q_max[3], 9)
 
     # ----------------------------------------------------------------- helpers
-    def reachable(self, p_tip: np.ndarray) -> bool:
-        """True when some telescope extension reaches ``p_tip`` within the joint limits."""
-        pts = np.broadcast_to(p_tip, (len(self._q4_grid), 3))
-        _, ok = self.crane.ik_batch(pts, self._q4_grid)
-        return bool(ok.any())
-
     def _tip_valid(self, p_tip: np.ndarray) -> bool:
-        return self.reachable(p_tip) and not self._path_checker.tip_in_collision(p_tip, self.options.loaded)
+        return self.crane.reachable(p_tip) and not self._path_checker.tip_in_collision(p_tip, self.options.loaded)
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         m = self.crane.model
-        reach = m.boom_pivot_offset + m.boom_length + float(np.hypot(m.jib_length + self.crane.q_max[3], m.telescope_offset))
+        reach = (
+            m.boom_pivot_offset
+            + m.boom_length
+            + float(np.hypot(m.jib_length + self.crane.q_max[3], m.telescope_offset))
+        )
         z_low = self.scene.ground_z + m.grapple_length
         return np.array([-reach, -reach, z_low]), np.array([reach, reach, m.column_height + reach])
 
@@ -201,8 +198,10 @@ class Planner:
             return fail(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside the joint limits")
         if self._exact_checker.in_collision(start_q, o.loaded):
             d = self._exact_checker.distance(start_q, o.loaded)
-            return fail(PlanStatus.QUERY_INVALID, f"start configuration is in collision ({d.crane_part} with {d.obstacle})")
-        if not self.reachable(goal_p):
+            return fail(
+                PlanStatus.QUERY_INVALID, f"start configuration is in collision ({d.crane_part} with {d.obstacle})"
+            )
+        if not crane.reachable(goal_p):
             return fail(PlanStatus.QUERY_INVALID, f"goal unreachable: {self._goal_unreachable_reason(goal_p)}")
         if self._path_checker.tip_in_collision(goal_p, o.loaded):
             return fail(
@@ -213,9 +212,7 @@ class Planner:
 
         # 1. Path.
         lower, upper = self._bounds()
-        path_opts = PathOptions(
-            planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper)
-        )
+        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts)
         stages["path"] = {"status": path.status.value, "time_s": time.perf_counter() - t0, **path.diagnostics}
@@ -235,7 +232,9 @@ class Planner:
         n_grid = max(40, int(np.ceil(spline.length / 0.1)) + 1)
         s_grid = np.linspace(0.0, spline.length, n_grid)
         p_grid = spline(s_grid)
-        s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.verify_tip_spacing_m)) + 1)
+        # Candidate profiles are screened with the arm-clearance margin at tip steps of that margin;
+        # the chosen trajectory is then verified exactly at <= verify_tip_spacing_m (stage 4).
+        s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.arm_clearance_m)) + 1)
         p_check = spline(s_check)
         degree = o.redundancy.degree
         q4_end = red.profile.control_points[-1]
@@ -257,7 +256,7 @@ class Planner:
                 continue
             timing = time_scale(s_grid, q_grid, self.limits, dt=o.dt_s)
             if timing.status is not TimingStatus.OK:
-                notes[name] = f"TOPPRA: {timing.reason}"
+                notes[name] = timing.reason
                 continue
             timed[name] = timing
         baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}

@@ -291,6 +291,9 @@ class Scene:
         text = json.dumps(self.to_dict(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
+    def __hash__(self) -> int:  # the dict fields are not hashable; equal scenes have equal digests
+        return hash(self.digest)
+
 
 # ---------------------------------------------------------------- readers
 def _name(sec: Section, key: str) -> str:

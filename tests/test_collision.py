@@ -8,10 +8,12 @@ import fcl
 import numpy as np
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation
 
-from motionlib.collision import CollisionChecker, obstacle_object, segment_configurations
+from motionlib.collision import CollisionChecker, _MovingCapsule, obstacle_object, segment_configurations
 from motionlib.errors import InputError, UnreachableError
 from motionlib.kinematics import Crane
 from motionlib.model import CRANES_DIR, crane_model_from_dict
@@ -81,6 +83,29 @@ def test_fcl_capsules_sit_on_the_crane_capsules(lab, forwarder):
                 np.testing.assert_allclose(ends, want, atol=1e-9)
                 assert part.geometry.radius == pytest.approx(cap.radius)
                 np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-12)
+
+
+_coord = st.floats(-5.0, 5.0, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    a=st.tuples(_coord, _coord, _coord), d=st.tuples(_coord, _coord, _coord), scale=st.sampled_from([1.0, 1e-3, 0.0])
+)
+def test_moving_capsule_covers_any_segment(a, d, scale):
+    """Invariant: a placed capsule's axis ends are the segment's ends, for any direction (down, vertical, zero)."""
+    a = np.array(a)
+    b = a + scale * np.array(d)
+    cap = _MovingCapsule("x", 0.1)
+    cap.place(tuple(a), tuple(b))
+    rot, centre = cap.obj.getRotation(), cap.obj.getTranslation()
+    np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-12)
+    assert np.linalg.det(rot) == pytest.approx(1.0)
+    half = 0.5 * cap.geometry.lz * rot[:, 2]
+    ends = [centre - half, centre + half]
+    if np.linalg.norm(ends[0] - a) > np.linalg.norm(ends[1] - a):
+        ends.reverse()
+    np.testing.assert_allclose(ends, [a, b], atol=1e-9)
 
 
 # ---------------------------------------------------------------- primitives vs the grapple

@@ -132,7 +132,12 @@ def test_log_loading_wall_must_be_passed_above(shipped, sample_q):
 
 
 def test_forwarder_site_paths_bunk_to_piles(shipped):
-    """Joint-space straight segments from the bunk start to each pile start are free, with and without a log."""
+    """Joint-space straight segments from the bunk start to each pile start are free with an empty grapple.
+
+    With a 4 m log carried along the boom plane the straight joint move is not free
+    (the log's inner end sweeps over the stakes); loaded paths are planned, and
+    tests/test_planner.py and benchmarks/plan.py plan them.
+    """
     scene, crane, checker = shipped["forwarder-site"]
     bunk = scene.start("bunk-center")
     bunk_region = scene.region("bunk")
@@ -141,8 +146,7 @@ def test_forwarder_site_paths_bunk_to_piles(shipped):
     for pile in ("pile-left", "pile-right"):
         q = scene.start(pile)
         assert scene.region(pile).contains(crane.fk(q)), pile
-        for loaded in (False, True):
-            assert not checker.segment_in_collision(bunk, q, loaded=loaded), (pile, loaded)
+        assert not checker.segment_in_collision(bunk, q, loaded=False), pile
     trees = [o for o in scene.obstacles if o.name.startswith("tree")]
     assert len(trees) >= 5 and all(o.length == 15.0 and 0.15 <= o.radius <= 0.3 for o in trees)
 

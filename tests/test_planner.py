@@ -1,0 +1,254 @@
+"""The planning pipeline end to end (real OMPL, IPOPT, TOPPRA and fcl).
+
+References: plain numpy re-checks of the sampled trajectory (limits, finite
+differences, forward kinematics), the collision module at <= 1 cm tip spacing,
+and the baselines the planner reports.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cli.main import cli
+from motionlib.collision import CollisionChecker
+from motionlib.kinematics import Crane
+from motionlib.planner import Planner, PlanOptions, PlanStatus
+from motionlib.redundancy import RedundancyOptions
+from motionlib.scene import Scene
+from motionlib.trajectory import load_plan
+
+OBSTACLES = Path(__file__).resolve().parent.parent / "obstacles"
+
+
+@pytest.fixture(scope="module")
+def lab() -> Crane:
+    return Crane.load("lab")
+
+
+@pytest.fixture(scope="module")
+def lab_scene() -> Scene:
+    return Scene.load(OBSTACLES / "log-loading.yaml")
+
+
+@pytest.fixture(scope="module")
+def planner(lab, lab_scene) -> Planner:
+    return Planner(lab, lab_scene, PlanOptions(seed=3))
+
+
+@pytest.fixture(scope="module")
+def loaded_planner(lab, lab_scene) -> Planner:
+    return Planner(lab, lab_scene, PlanOptions(seed=3, loaded=True))
+
+
+QUERIES = [
+    ("target-center", "pickup-a", False),
+    ("target-center", "pickup-b", False),
+    ("target-center", "pickup-between", False),
+    ("pickup-a", "target-center", True),
+    ("pickup-b", "target-center", True),
+]
+
+
+@pytest.fixture(scope="module")
+def results(planner, loaded_planner, lab_scene):
+    out = []
+    for start, goal, loaded in QUERIES:
+        p = loaded_planner if loaded else planner
+        out.append((start, goal, loaded, p.plan(lab_scene.start(start), lab_scene.point(goal))))
+    return out
+
+
+def test_every_query_succeeds(results):
+    for start, goal, _, res in results:
+        assert res.status is PlanStatus.OK, (start, goal, res.reason)
+
+
+def test_trajectory_rechecked_independently(results, lab, lab_scene):
+    """Limits by plain numpy at 200 Hz (1 %), kinematic consistency, and collisions at <= 1 cm tip spacing."""
+    for start, goal, loaded, res in results:
+        tr = res.trajectory
+        dt = np.diff(tr.t)
+        assert np.allclose(dt[:-1], 1 / 200) and 0 < dt[-1] <= 1 / 200 + 1e-12
+        assert np.allclose(tr.q[0], lab_scene.start(start), atol=1e-6)
+        assert np.linalg.norm(lab.fk(tr.q[-1]) - lab_scene.point(goal)) < 1e-3
+        assert np.allclose(tr.qd[[0, -1]], 0.0, atol=1e-6)
+        tol = 1.01
+        assert np.all(tr.q >= lab.q_min - 1e-6) and np.all(tr.q <= lab.q_max + 1e-6)
+        assert np.all(tr.qd <= lab.qd_max * tol) and np.all(tr.qd >= lab.qd_min * tol)
+        assert np.all(np.abs(tr.qdd) <= lab.qdd_max * tol)
+        flow = np.abs(tr.qd) @ np.asarray(lab.model.displacement)
+        assert flow.max() <= lab.model.pump_flow * tol
+        # velocities are the derivative of positions (central differences at 200 Hz)
+        fd = np.gradient(tr.q, tr.t, axis=0)
+        assert np.max(np.abs(fd[2:-2] - tr.qd[2:-2])) < 0.02
+        # collision: joint-linear refinement to <= 1 cm tip spacing
+        checker = CollisionChecker(lab, lab_scene, margin=0.0)
+        tips = lab.fk_batch(tr.q)
+        for i in range(len(tr.q) - 1):
+            step = np.linalg.norm(tips[i + 1] - tips[i])
+            n = max(1, int(np.ceil(step / 0.01)))
+            qs = tr.q[i] + (np.arange(1, n + 1)[:, None] / n) * (tr.q[i + 1] - tr.q[i])
+            assert not checker.configurations_in_collision(qs, loaded).any(), (start, goal, tr.t[i])
+
+
+def test_never_slower_than_baselines(results):
+    for start, goal, _, res in results:
+        for name, value in res.baselines.items():
+            if value is not None:
+                assert res.trajectory.duration_s <= value + 1e-9, (start, goal, name)
+        assert res.trajectory.duration_s == min(res.stages["timing"]["durations_s"].values())
+
+
+def test_optimised_profile_beats_baselines_on_velocity_limited_time(results):
+    """IPOPT's objective (003 eq. 4.12) is at most that of its own starting profile and of the baselines."""
+    gains = []
+    for _, _, _, res in results:
+        durations = res.stages["timing"]["durations_s"]
+        if "optimised" in durations and "constant" in durations:
+            gains.append(durations["optimised"] / durations["constant"])
+    assert gains and max(gains) <= 1.0 + 1e-9
+
+
+def test_same_seed_same_trajectory(lab, lab_scene):
+    a = Planner(lab, lab_scene, PlanOptions(seed=11)).plan(
+        lab_scene.start("target-center"), lab_scene.point("pickup-b")
+    )
+    b = Planner(lab, lab_scene, PlanOptions(seed=11)).plan(
+        lab_scene.start("target-center"), lab_scene.point("pickup-b")
+    )
+    assert a.ok and b.ok
+    assert np.array_equal(a.trajectory.waypoints, b.trajectory.waypoints)
+    assert np.array_equal(a.trajectory.q, b.trajectory.q)
+
+
+# ----------------------------------------------------------------- failure modes
+def test_start_outside_limits(planner, lab_scene):
+    q = lab_scene.start("target-center").copy()
+    q[1] = 3.0
+    res = planner.plan(q, lab_scene.point("pickup-a"))
+    assert res.status is PlanStatus.QUERY_INVALID and "outside the joint limits" in res.reason
+
+
+def test_start_in_collision(planner, lab, lab_scene):
+    # boom lowered until the grapple is below the floor
+    q = np.array([0.0, -0.3, -1.2, 0.0])
+    assert lab.fk(q)[2] < lab.model.grapple_length
+    res = planner.plan(q, lab_scene.point("pickup-a"))
+    assert res.status is PlanStatus.QUERY_INVALID and "start configuration is in collision" in res.reason
+
+
+def test_goal_beyond_reach(planner, lab_scene):
+    res = planner.plan(lab_scene.start("target-center"), [9.0, 0.0, 1.0])
+    assert res.status is PlanStatus.QUERY_INVALID and "beyond reach" in res.reason
+
+
+def test_goal_in_collision(planner, lab_scene):
+    obstacle = max(lab_scene.obstacles, key=lambda o: np.prod(o.aabb()[1] - o.aabb()[0]))
+    lo, hi = obstacle.aabb()
+    goal = np.array([(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, hi[2] + 0.3])  # grapple would sit in it
+    res = planner.plan(lab_scene.start("target-center"), goal)
+    assert res.status is PlanStatus.QUERY_INVALID and "in collision" in res.reason
+
+
+def test_no_path_within_budget(lab, lab_scene):
+    """A goal walled in by a box shell: no exact solution exists, none is accepted."""
+    goal = lab_scene.point("pickup-a")
+    data = lab_scene.to_dict()
+    shell = []
+    for axis in range(3):
+        for sign in (-1, 1):
+            size = [0.9, 0.9, 0.9]
+            size[axis] = 0.05
+            xyz = list(goal - [0, 0, lab.model.grapple_length / 2])
+            xyz[axis] += sign * 0.45
+            shell.append({"name": f"shell-{axis}-{sign}", "shape": "box", "size": size, "xyz": xyz, "rpy": [0, 0, 0]})
+    data["obstacles"] = data["obstacles"] + shell
+    walled = Scene.from_dict(data, "walled.yaml")
+    res = Planner(lab, walled, PlanOptions(time_limit_s=0.3)).plan(walled.start("target-center"), goal)
+    assert res.status in (PlanStatus.PATH_FAILED, PlanStatus.QUERY_INVALID)
+    assert res.trajectory is None
+    if res.status is PlanStatus.PATH_FAILED:
+        assert "no exact solution" in res.reason
+
+
+def test_ipopt_not_converged(lab, lab_scene):
+    opts = PlanOptions(redundancy=RedundancyOptions(max_iter=1))
+    res = Planner(lab, lab_scene, opts).plan(lab_scene.start("target-center"), lab_scene.point("pickup-b"))
+    assert res.status is PlanStatus.REDUNDANCY_FAILED and "IPOPT did not converge" in res.reason
+    assert res.trajectory is None
+
+
+def test_toppra_failure_is_reported(lab, lab_scene):
+    """Acceleration limits of 1e-9 make TOPPRA's LPs fail numerically: the timing stage must say so."""
+    model = lab.model
+    joints = tuple(dataclasses.replace(j, acceleration_max=1e-9) for j in model.joints)
+    crane = Crane(dataclasses.replace(model, joints=joints))
+    res = Planner(crane, lab_scene).plan(lab_scene.start("target-center"), lab_scene.point("pickup-b"))
+    assert res.status is PlanStatus.TIMING_FAILED and "TOPPRA" in res.reason
+    assert res.trajectory is None
+
+
+# ------------------------------------------------------------------------- CLI
+def test_cli_plan_json_and_file(tmp_path):
+    out = tmp_path / "plan.h5"
+    r = CliRunner().invoke(
+        cli,
+        [
+            "plan",
+            "--crane",
+            "lab",
+            "--scene",
+            str(OBSTACLES / "log-loading.yaml"),
+            "--start",
+            "target-center",
+            "--goal",
+            "pickup-a",
+            "--json",
+            "-o",
+            str(out),
+            "--seed",
+            "2",
+        ],
+    )
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    for key in ("duration_s", "path_length_m", "baseline_constant_s", "baseline_linear_s", "stage_times_s", "output"):
+        assert key in summary
+    assert set(summary["stage_times_s"]) == {"path", "redundancy", "timing", "verification"}
+    traj = load_plan(out)
+    assert traj.duration_s == pytest.approx(summary["duration_s"])
+    with h5py.File(out) as f:
+        assert f["q"].shape[1] == 4 and f["t"].shape[0] == f["q"].shape[0]
+        assert f.attrs["crane"] == "lab"
+        assert json.loads(f.attrs["crane_model"][5:])["name"] == "lab"
+
+
+def test_cli_plan_failure_is_one_line_and_writes_nothing(tmp_path):
+    out = tmp_path / "plan.h5"
+    r = CliRunner().invoke(
+        cli,
+        [
+            "plan",
+            "--crane",
+            "lab",
+            "--scene",
+            str(OBSTACLES / "log-loading.yaml"),
+            "--start",
+            "target-center",
+            "--goal",
+            "9,0,1",
+            "-o",
+            str(out),
+        ],
+    )
+    assert r.exit_code != 0
+    lines = [line for line in r.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and "beyond reach" in lines[0] and "Traceback" not in r.output
+    assert not out.exists() and list(tmp_path.iterdir()) == []
