@@ -319,8 +319,11 @@ class Crane:
         q[ok] = np.clip(q[ok], self.q_min, self.q_max)
         return q, ok
 
-    def reachable(self, p_tip: np.ndarray) -> bool:
+    def reachable(self, p_tip: np.ndarray, margin: float = 0.0) -> bool:
         """True when some telescope extension reaches ``p_tip`` (3,) within all joint limits.
+
+        ``margin`` (rad) shrinks the boom and jib limits: a point reachable with a
+        margin lies inside the workspace, away from its edge.
 
         Tries :attr:`REACH_TELESCOPE_SAMPLES` extensions evenly spread over the
         stroke with the closed-form IK (a found solution is a proof of
@@ -338,10 +341,10 @@ class Crane:
             q2, q3, cos_elbow = self.planar_ik(rho, zeta, grid, ops=_IK_OPS)
         ok = (
             (np.abs(cos_elbow) <= 1.0 + IK_COS_TOL)
-            & (q2 >= self.q_min[1] - IK_LIMIT_TOL)
-            & (q2 <= self.q_max[1] + IK_LIMIT_TOL)
-            & (q3 >= self.q_min[2] - IK_LIMIT_TOL)
-            & (q3 <= self.q_max[2] + IK_LIMIT_TOL)
+            & (q2 >= self.q_min[1] + margin - IK_LIMIT_TOL)
+            & (q2 <= self.q_max[1] - margin + IK_LIMIT_TOL)
+            & (q3 >= self.q_min[2] + margin - IK_LIMIT_TOL)
+            & (q3 <= self.q_max[2] - margin + IK_LIMIT_TOL)
         )
         return bool(ok.any())
 

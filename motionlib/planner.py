@@ -75,6 +75,10 @@ class PlanOptions:
         Clearance the grapple (and log) keeps from the scene along the path (m).
     arm_clearance_m : float
         Clearance the crane links keep from the scene (m).
+    reach_margin_rad : float
+        Every path point must be reachable by some telescope extension with the
+        boom and jib this far (rad) inside their limits, so that the path keeps
+        away from the edge of the workspace and a smooth telescope profile exists.
     dt_s : float
         Sample period of the stored trajectory (s).
     verify_tip_spacing_m : float
@@ -88,6 +92,7 @@ class PlanOptions:
     time_limit_s: float = 2.0
     clearance_m: float = 0.10
     arm_clearance_m: float = 0.05
+    reach_margin_rad: float = 0.04
     dt_s: float = 1.0 / 200.0
     verify_tip_spacing_m: float = 0.01
     redundancy: RedundancyOptions = field(default_factory=RedundancyOptions)
@@ -150,7 +155,9 @@ class Planner:
 
     # ----------------------------------------------------------------- helpers
     def _tip_valid(self, p_tip: np.ndarray) -> bool:
-        return self.crane.reachable(p_tip) and not self._path_checker.tip_in_collision(p_tip, self.options.loaded)
+        return self.crane.reachable(p_tip, self.options.reach_margin_rad) and not self._path_checker.tip_in_collision(
+            p_tip, self.options.loaded
+        )
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         m = self.crane.model
@@ -203,6 +210,13 @@ class Planner:
             )
         if not crane.reachable(goal_p):
             return fail(PlanStatus.QUERY_INVALID, f"goal unreachable: {self._goal_unreachable_reason(goal_p)}")
+        for name, p in (("start", crane.fk(start_q)), ("goal", goal_p)):
+            if not crane.reachable(p, o.reach_margin_rad):
+                return fail(
+                    PlanStatus.QUERY_INVALID,
+                    f"{name} {np.round(p, 3).tolist()} is at the edge of the workspace: no telescope extension "
+                    f"reaches it with the boom and jib {o.reach_margin_rad} rad inside their limits",
+                )
         if self._path_checker.tip_in_collision(goal_p, o.loaded):
             return fail(
                 PlanStatus.QUERY_INVALID,
