@@ -15,6 +15,7 @@ solution (003 eq. 4.15).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -80,7 +81,13 @@ class Crane:
         self.qd_min = lim["qd_min"]
         self.qd_max = lim["qd_max"]
         self.qdd_max = lim["qdd_max"]
-        self._reach_grid = np.linspace(self.q_min[3], self.q_max[3], self.REACH_TELESCOPE_SAMPLES)
+        grid = np.linspace(self.q_min[3], self.q_max[3], self.REACH_TELESCOPE_SAMPLES)
+        grid = grid[np.argsort(np.abs(grid - grid.mean()), kind="stable")]  # mid-stroke first
+        ext = model.jib_length + grid
+        # (virtual jib length, its angle offset) per telescope sample, as in planar_ik
+        self._reach_links = [
+            (float(np.hypot(e, model.telescope_offset)), float(np.arctan2(model.telescope_offset, e))) for e in ext
+        ]
 
     @classmethod
     def load(cls, name_or_path: str | Path) -> Crane:
@@ -326,27 +333,34 @@ class Crane:
         margin lies inside the workspace, away from its edge.
 
         Tries :attr:`REACH_TELESCOPE_SAMPLES` extensions evenly spread over the
-        stroke with the closed-form IK (a found solution is a proof of
-        reachability; a point reachable only within a sliver of the stroke may be
-        missed). No input checks: this is the planner's hot path.
+        stroke (mid-stroke first) with the closed-form IK of :meth:`planar_ik`
+        (a found solution is a proof of reachability; a point reachable only
+        within a sliver of the stroke may be missed). Scalar ``math`` code with
+        an early exit and no input checks: this is the path planner's hot path.
         """
-        grid = self._reach_grid
         x, y, z = float(p_tip[0]), float(p_tip[1]), float(p_tip[2])
-        heading = np.arctan2(y, x)
-        if not any(self.q_min[0] <= heading + k <= self.q_max[0] for k in (-2 * np.pi, 0.0, 2 * np.pi)):
+        heading = math.atan2(y, x)
+        lo, hi = self.q_min, self.q_max
+        if not any(lo[0] <= heading + k <= hi[0] for k in (-2 * math.pi, 0.0, 2 * math.pi)):
             return False
-        rho = np.hypot(x, y) - self.model.boom_pivot_offset
-        zeta = z - self.model.column_height
-        with np.errstate(invalid="ignore"):
-            q2, q3, cos_elbow = self.planar_ik(rho, zeta, grid, ops=_IK_OPS)
-        ok = (
-            (np.abs(cos_elbow) <= 1.0 + IK_COS_TOL)
-            & (q2 >= self.q_min[1] + margin - IK_LIMIT_TOL)
-            & (q2 <= self.q_max[1] - margin + IK_LIMIT_TOL)
-            & (q3 >= self.q_min[2] + margin - IK_LIMIT_TOL)
-            & (q3 <= self.q_max[2] - margin + IK_LIMIT_TOL)
-        )
-        return bool(ok.any())
+        m = self.model
+        rho = math.hypot(x, y) - m.boom_pivot_offset
+        zeta = z - m.column_height
+        dist2 = rho * rho + zeta * zeta
+        base = math.atan2(zeta, rho)
+        boom = m.boom_length
+        q2_lo, q2_hi = lo[1] + margin - IK_LIMIT_TOL, hi[1] - margin + IK_LIMIT_TOL
+        q3_lo, q3_hi = lo[2] + margin - IK_LIMIT_TOL, hi[2] - margin + IK_LIMIT_TOL
+        for ell, gamma in self._reach_links:
+            cos_elbow = (dist2 - boom * boom - ell * ell) / (2.0 * boom * ell)
+            if abs(cos_elbow) > 1.0 + IK_COS_TOL:
+                continue
+            elbow = -math.acos(max(-1.0, min(1.0, cos_elbow)))
+            q2 = base - math.atan2(ell * math.sin(elbow), boom + ell * math.cos(elbow))
+            q3 = elbow - gamma
+            if q2_lo <= q2 <= q2_hi and q3_lo <= q3 <= q3_hi:
+                return True
+        return False
 
     def _slew_branch(self, heading: float, q1_ref: float) -> float | None:
         candidates = [heading + 2.0 * np.pi * k for k in (-1, 0, 1)]

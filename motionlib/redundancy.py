@@ -82,7 +82,7 @@ class RedundancyOptions:
     """
 
     degree: int = 5
-    n_samples: int = 48
+    n_samples: int = 32
     limit_margin: float = 0.01
     max_iter: int = 300
     check_step_m: float = 0.02

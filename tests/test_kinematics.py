@@ -148,3 +148,22 @@ def test_ik_batch_agrees_with_ik(crane, sample_q):
             continue
         assert ok[i], f"point {i}: ik succeeds, ik_batch says unreachable"
         np.testing.assert_allclose(q_batch[i], q_single, atol=1e-12)
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.04])
+def test_reachable_matches_brute_force_ik(crane: Crane, margin: float) -> None:
+    """Crane.reachable (scalar, early exit) agrees with ik_batch over the same telescope samples."""
+    rng = np.random.default_rng(7)
+    reach = crane.pivot_distance_range(crane.q_max[3])[1] + crane.model.boom_pivot_offset
+    pts = rng.uniform([-reach, -reach, -1.0], [reach, reach, crane.model.column_height + reach], (2000, 3))
+    grid = np.linspace(crane.q_min[3], crane.q_max[3], crane.REACH_TELESCOPE_SAMPLES)
+    inner_lo = crane.q_min[1:3] + margin - 1e-7
+    inner_hi = crane.q_max[1:3] - margin + 1e-7
+    expected = []
+    for p in pts:
+        q, ok = crane.ik_batch(np.broadcast_to(p, (len(grid), 3)), grid)
+        ok &= np.all((q[:, 1:3] >= inner_lo) & (q[:, 1:3] <= inner_hi), axis=1)
+        expected.append(bool(ok.any()))
+    got = [crane.reachable(p, margin) for p in pts]
+    assert 0.2 < np.mean(expected) < 0.8  # both outcomes well represented
+    assert got == expected
