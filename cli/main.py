@@ -22,6 +22,9 @@ COMMANDS: dict[str, str] = {
     "ik": "ik:ik",
     "scene": "scene:scene",
     "plan": "plan:plan",
+    "build": "build:build",
+    "select": "select:select",
+    "inspect": "inspect:inspect",
 }
 
 

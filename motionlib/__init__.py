@@ -13,6 +13,7 @@ from .kinematics import Capsule, Crane
 __all__ = [
     "Capsule",
     "Crane",
+    "Library",
     "InputError",
     "LibraryFileError",
     "ModelFileError",
@@ -20,3 +21,11 @@ __all__ = [
     "PlanningError",
     "UnreachableError",
 ]
+
+
+def __getattr__(name: str):  # PEP 562: motionlib.Library without importing h5py/scipy on `import motionlib`
+    if name == "Library":
+        from .library import Library
+
+        return Library
+    raise AttributeError(f"module 'motionlib' has no attribute {name!r}")

@@ -16,6 +16,7 @@ solution (003 eq. 4.15).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import SimpleNamespace
@@ -86,7 +87,8 @@ class Crane:
         ext = model.jib_length + grid
         # (virtual jib length, its angle offset) per telescope sample, as in planar_ik
         self._reach_links = [
-            (float(np.hypot(e, model.telescope_offset)), float(np.arctan2(model.telescope_offset, e))) for e in ext
+            (float(q4), float(np.hypot(e, model.telescope_offset)), float(np.arctan2(model.telescope_offset, e)))
+            for q4, e in zip(grid, ext, strict=True)
         ]
 
     @classmethod
@@ -136,9 +138,7 @@ class Crane:
         q = np.asarray(q, dtype=np.float64)
         rho, zeta = self.planar_fk(q[:, 1], q[:, 2], q[:, 3])
         radial = self.model.boom_pivot_offset + rho
-        return np.stack(
-            [radial * np.cos(q[:, 0]), radial * np.sin(q[:, 0]), self.model.column_height + zeta], axis=1
-        )
+        return np.stack([radial * np.cos(q[:, 0]), radial * np.sin(q[:, 0]), self.model.column_height + zeta], axis=1)
 
     def frames(self, q: Any) -> dict[str, np.ndarray]:
         """Homogeneous transforms (4, 4) of every link frame in the base frame.
@@ -330,19 +330,25 @@ class Crane:
         """True when some telescope extension reaches ``p_tip`` (3,) within all joint limits.
 
         ``margin`` (rad) shrinks the boom and jib limits: a point reachable with a
-        margin lies inside the workspace, away from its edge.
+        margin lies inside the workspace, away from its edge. See :meth:`reach_solutions`.
+        """
+        return next(self.reach_solutions(p_tip, margin), None) is not None
 
-        Tries :attr:`REACH_TELESCOPE_SAMPLES` extensions evenly spread over the
-        stroke (mid-stroke first) with the closed-form IK of :meth:`planar_ik`
-        (a found solution is a proof of reachability; a point reachable only
-        within a sliver of the stroke may be missed). Scalar ``math`` code with
-        an early exit and no input checks: this is the path planner's hot path.
+    def reach_solutions(self, p_tip: np.ndarray, margin: float = 0.0) -> Iterator[tuple[float, float, float, float]]:
+        """Configurations (q1, q2, q3, q4) that put the tip at ``p_tip`` (3,), lazily.
+
+        Tries :attr:`REACH_TELESCOPE_SAMPLES` telescope extensions evenly spread
+        over the stroke, mid-stroke first, with the closed-form IK of
+        :meth:`planar_ik`, and yields those within the joint limits (boom and jib
+        ``margin`` rad inside them). q1 is the heading in (-pi, pi]. A point
+        reachable only within a sliver of the stroke may be missed. Scalar
+        ``math`` code without input checks: this is the path planner's hot path.
         """
         x, y, z = float(p_tip[0]), float(p_tip[1]), float(p_tip[2])
         heading = math.atan2(y, x)
         lo, hi = self.q_min, self.q_max
         if not any(lo[0] <= heading + k <= hi[0] for k in (-2 * math.pi, 0.0, 2 * math.pi)):
-            return False
+            return
         m = self.model
         rho = math.hypot(x, y) - m.boom_pivot_offset
         zeta = z - m.column_height
@@ -351,7 +357,7 @@ class Crane:
         boom = m.boom_length
         q2_lo, q2_hi = lo[1] + margin - IK_LIMIT_TOL, hi[1] - margin + IK_LIMIT_TOL
         q3_lo, q3_hi = lo[2] + margin - IK_LIMIT_TOL, hi[2] - margin + IK_LIMIT_TOL
-        for ell, gamma in self._reach_links:
+        for q4, ell, gamma in self._reach_links:
             cos_elbow = (dist2 - boom * boom - ell * ell) / (2.0 * boom * ell)
             if abs(cos_elbow) > 1.0 + IK_COS_TOL:
                 continue
@@ -359,8 +365,7 @@ class Crane:
             q2 = base - math.atan2(ell * math.sin(elbow), boom + ell * math.cos(elbow))
             q3 = elbow - gamma
             if q2_lo <= q2 <= q2_hi and q3_lo <= q3 <= q3_hi:
-                return True
-        return False
+                yield heading, q2, q3, q4
 
     def _slew_branch(self, heading: float, q1_ref: float) -> float | None:
         candidates = [heading + 2.0 * np.pi * k for k in (-1, 0, 1)]

@@ -30,6 +30,9 @@ from __future__ import annotations
 
 import functools
 import json
+import os
+import re
+from collections import Counter
 from collections.abc import Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass
@@ -186,6 +189,21 @@ class EntryRecord:
         return self.status == "ok"
 
 
+def failure_patterns(records: Any) -> list[tuple[str, str, int]]:
+    """Failed entries grouped by (stage, reason with numbers replaced by ``#``), most frequent first."""
+    counts: Counter[tuple[str, str]] = Counter()
+    for r in records:
+        if r.status != "ok":
+            counts[(r.stage, reason_pattern(r.reason))] += 1
+    return [(stage, reason, n) for (stage, reason), n in sorted(counts.items(), key=lambda kv: (-kv[1], kv[0]))]
+
+
+def reason_pattern(reason: str) -> str:
+    """A failure reason with its numbers replaced by ``#`` (to group similar failures); names keep their digits."""
+    text = re.sub(r"(?<![\w.])[-+]?\d+(\.\d+)?([eE][-+]?\d+)?", "#", reason)  # numbers, not names like log-a1
+    return re.sub(r"\[#(, #)*\]", "[#...]", text)
+
+
 # ======================================================================= writer
 class LibraryWriter:
     """Write a library file entry by entry, atomically.
@@ -242,6 +260,9 @@ class LibraryWriter:
     def __enter__(self) -> LibraryWriter:
         self._stack = ExitStack()
         tmp = self._stack.enter_context(atomic_output(self.path))
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # a library is for sharing: the usual mode, not the temporary file's 0600
         self._file = self._stack.enter_context(h5py.File(tmp, "w"))
         self._file.create_group("trajectories")
         return self
@@ -357,9 +378,9 @@ def _stack(arrays: list[np.ndarray], empty_shape: tuple[int, ...]) -> np.ndarray
 
 
 def _checked_dataset(group: h5py.Group, key: str, data: np.ndarray, dtype: Any = None) -> None:
-    """A contiguous-content dataset with a Fletcher-32 checksum (chunked) when not empty."""
-    if data.size == 0:
-        group.create_dataset(key, shape=data.shape, dtype=dtype or data.dtype)
+    """A chunked dataset with a Fletcher-32 checksum; strings (not filterable) and empty data stored plain."""
+    if data.size == 0 or dtype is not None:
+        group.create_dataset(key, data=data, shape=data.shape, dtype=dtype or data.dtype)
         return
     chunk_rows = max(1, min(data.shape[0], 65536))
     group.create_dataset(key, data=data, dtype=dtype, chunks=(chunk_rows, *data.shape[1:]), fletcher32=True)
@@ -531,6 +552,46 @@ class Library:
             )
             for i in range(self.n_entries)
         )
+
+    def summary(self) -> dict[str, Any]:
+        """Counts, failures and statistics of the library (for reports; reads the entry table).
+
+        Returns
+        -------
+        dict
+            ``name``, ``crane``, ``scene``, ``entries``, ``ok``, ``failed``; ``by_motion``
+            (motion -> {ok, failed}); ``failures`` (list of {stage, reason, count}, most
+            frequent first, numbers in reasons replaced by ``#``); ``statistics``: for
+            ``duration_s``, ``energy_m3``, ``path_length_m``, ``clearance_m`` the min,
+            p10, median, mean, p90 and max over the successful entries (None when there are none).
+        """
+        by_motion: dict[str, dict[str, int]] = {}
+        for r in self.entries:
+            counts = by_motion.setdefault(r.motion, {"ok": 0, "failed": 0})
+            counts["ok" if r.ok else "failed"] += 1
+        stats: dict[str, Any] = {}
+        for key in ("duration_s", "energy_m3", "path_length_m", "clearance_m"):
+            v = getattr(self, key)
+            if v.size == 0:
+                stats[key] = None
+                continue
+            p10, p50, p90 = np.percentile(v, [10, 50, 90])
+            stats[key] = {
+                "min": float(v.min()), "p10": float(p10), "median": float(p50), "mean": float(v.mean()),
+                "p90": float(p90), "max": float(v.max()),
+            }
+        return {
+            "path": str(self.path),
+            "name": self.name,
+            "crane": self.crane_name,
+            "scene": self.scene_name,
+            "entries": self.n_entries,
+            "ok": self.n_ok,
+            "failed": self.n_failed,
+            "by_motion": by_motion,
+            "failures": [{"stage": s, "reason": r, "count": n} for s, r, n in failure_patterns(self.entries)],
+            "statistics": stats,
+        }
 
     def metadata(self, key: str) -> Any:
         """A JSON record of the root: ``crane_model``, ``scene_model``, ``spec`` or ``build``."""

@@ -210,13 +210,7 @@ class LibrarySpec:
 
     def plan_options(self, loaded: bool = False, seed: int = 0) -> Any:
         """The :class:`motionlib.planner.PlanOptions` of an entry (imports the planner)."""
-        from .planner import PlanOptions
-        from .redundancy import RedundancyOptions
-
-        kw = dict(self.planner)
-        if "redundancy" in kw:
-            kw["redundancy"] = RedundancyOptions(**kw["redundancy"])
-        return PlanOptions(loaded=loaded, seed=seed, **kw)
+        return plan_options(self.planner, loaded, seed)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form, self-contained (crane and scene by name and digest; embedded separately)."""
@@ -249,6 +243,17 @@ class LibrarySpec:
         content["entries"] = [asdict(e) for e in self.entries()]
         text = json.dumps(content, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
+
+
+def plan_options(planner: dict[str, Any], loaded: bool = False, seed: int = 0) -> Any:
+    """:class:`motionlib.planner.PlanOptions` from a spec's ``planner`` mapping, ``loaded`` and ``seed``."""
+    from .planner import PlanOptions
+    from .redundancy import RedundancyOptions
+
+    kw = dict(planner)
+    if "redundancy" in kw:
+        kw["redundancy"] = RedundancyOptions(**kw["redundancy"])
+    return PlanOptions(loaded=loaded, seed=seed, **kw)
 
 
 def entry_seed(spec_seed: int, key: str) -> int:
@@ -318,32 +323,38 @@ def _integer(sec: Section, key: str, default: Any, lo: int | None = None, hi: in
     return int(value)
 
 
-def _read_planner(sec: Section) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    if sec.has("planner"):
-        from .path import available_planners
+_POSITIVE = {"time_limit_s", "dt_s", "verify_tip_spacing_m", "check_step_m"}  # options that must be > 0
 
-        out["planner"] = sec.string("planner", choices=available_planners())
-    for key, bound in (
-        ("time_limit_s", "gt"),
-        ("clearance_m", "ge"),
-        ("arm_clearance_m", "ge"),
-        ("dt_s", "gt"),
-        ("verify_tip_spacing_m", "gt"),
-    ):
-        if sec.has(key):
-            out[key] = sec.number(key, **{bound: 0.0})
-    if sec.has("redundancy"):
-        red = sec.section("redundancy")
-        r: dict[str, Any] = {}
-        for key, lo in (("degree", 1), ("n_samples", 2), ("max_iter", 1)):
-            if red.has(key):
-                r[key] = _integer(red, key, None, lo=lo)
-        for key, bound in (("limit_margin", "ge"), ("check_step_m", "gt")):
-            if red.has(key):
-                r[key] = red.number(key, **{bound: 0.0})
-        red.done()
-        out["redundancy"] = r
+
+def _read_planner(sec: Section) -> dict[str, Any]:
+    """Planner options: the fields of :class:`PlanOptions` (but ``loaded``, ``seed``), typed by their defaults."""
+    from .planner import PlanOptions
+
+    return _read_options(sec, PlanOptions(), skip=("loaded", "seed"))
+
+
+def _read_options(sec: Section, defaults: Any, skip: tuple[str, ...] = ()) -> dict[str, Any]:
+    import dataclasses
+
+    out: dict[str, Any] = {}
+    for f in dataclasses.fields(defaults):
+        if f.name in skip or not sec.has(f.name):
+            continue
+        default = getattr(defaults, f.name)
+        if dataclasses.is_dataclass(default):
+            out[f.name] = _read_options(sec.section(f.name), default)
+        elif isinstance(default, bool):
+            out[f.name] = sec.boolean(f.name)
+        elif isinstance(default, int):
+            out[f.name] = _integer(sec, f.name, None, lo=1)
+        elif isinstance(default, float):
+            out[f.name] = sec.number(f.name, **({"gt": 0.0} if f.name in _POSITIVE else {"ge": 0.0}))
+        elif f.name == "planner":
+            from .path import available_planners
+
+            out[f.name] = sec.string(f.name, choices=available_planners())
+        else:
+            out[f.name] = sec.string(f.name)
     sec.done()
     return out
 

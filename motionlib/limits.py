@@ -273,8 +273,16 @@ class PathSpeedConstraint(tc.LinearConstraint):
         return None, None, None, None, None, None, xbound
 
 
-def limits_for(crane: Crane) -> list[Limit]:
+def limits_for(crane: Crane, scale: float = 1.0) -> list[Limit]:
     """All limits of a crane.
+
+    Parameters
+    ----------
+    crane : Crane
+    scale : float
+        Factor in (0, 1] applied to the velocity, acceleration and pump-flow
+        limits (not the position limits): a safety factor for time scaling, whose
+        constraints hold only at its grid points.
 
     Returns
     -------
@@ -282,13 +290,14 @@ def limits_for(crane: Crane) -> list[Limit]:
         ``[JointPositionLimit, JointVelocityLimit, JointAccelerationLimit]``
         and, when the model has a ``hydraulics`` section, a ``PumpFlowLimit``.
     """
+    scale = check_scalar(scale, "scale", gt=0.0, le=1.0)
     limits: list[Limit] = [
         JointPositionLimit(crane.q_min, crane.q_max),
-        JointVelocityLimit(crane.qd_min, crane.qd_max),
-        JointAccelerationLimit(crane.qdd_max),
+        JointVelocityLimit(scale * crane.qd_min, scale * crane.qd_max),
+        JointAccelerationLimit(scale * crane.qdd_max),
     ]
     if crane.model.pump_flow is not None:
-        limits.append(PumpFlowLimit(crane.model.displacement, crane.model.pump_flow))
+        limits.append(PumpFlowLimit(crane.model.displacement, scale * crane.model.pump_flow))
     return limits
 
 

@@ -57,6 +57,22 @@ class PlanStatus(Enum):
     VERIFICATION_FAILED = "verification"
 
 
+# (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
+TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400))
+
+
+@dataclass(frozen=True)
+class VerificationReport:
+    """Problems found by :meth:`Planner.verify`: one line each, limits and collisions apart."""
+
+    limits: list[str]
+    collisions: list[str]
+
+    @property
+    def ok(self) -> bool:
+        return not (self.limits or self.collisions)
+
+
 @dataclass(frozen=True)
 class PlanOptions:
     """Options of :func:`plan`.
@@ -152,12 +168,28 @@ class Planner:
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
         self._exact_checker = CollisionChecker(crane, scene, margin=0.0)
         self.limits = limits_for(crane)
+        self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
 
     # ----------------------------------------------------------------- helpers
     def _tip_valid(self, p_tip: np.ndarray) -> bool:
-        return self.crane.reachable(p_tip, self.options.reach_margin_rad) and not self._path_checker.tip_in_collision(
-            p_tip, self.options.loaded
+        """Path-state validity (000 section 2.3): the grapple (and log) keeps its clearance, and some
+        telescope extension reaches the point inside the workspace with the whole arm clear.
+
+        Telescope extensions are tried nearest the last one that worked first: neighbouring
+        states usually share it, which saves arm collision checks.
+        """
+        loaded = self.options.loaded
+        if self._path_checker.tip_in_collision(p_tip, loaded):
+            return False
+        solutions = sorted(
+            self.crane.reach_solutions(p_tip, self.options.reach_margin_rad),
+            key=lambda q: abs(q[3] - self._last_q4),
         )
+        for q in solutions:
+            if not self._arm_checker.in_collision(q, loaded):
+                self._last_q4 = q[3]
+                return True
+        return False
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         m = self.crane.model
@@ -222,6 +254,12 @@ class Planner:
                 PlanStatus.QUERY_INVALID,
                 f"goal {goal_p.tolist()} is in collision: the grapple there is within {o.clearance_m} m of an obstacle",
             )
+        if not self._tip_valid(goal_p):
+            return fail(
+                PlanStatus.QUERY_INVALID,
+                f"goal {goal_p.tolist()} is blocked: for every telescope extension that reaches it, "
+                f"the arm comes within {o.arm_clearance_m} m of an obstacle",
+            )
         start_p = crane.fk(start_q)
 
         # 1. Path.
@@ -234,75 +272,80 @@ class Planner:
             return fail(PlanStatus.PATH_FAILED, path.reason)
         spline = path.spline
 
-        # 2. Redundancy.
+        # 2. Redundancy: the optimised profile and the two baselines, screened for the joint
+        #    limits and arm clearance (a verified result, with fallbacks when none is clear).
         t0 = time.perf_counter()
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy)
-        stages["redundancy"] = {"status": red.status.value, "time_s": time.perf_counter() - t0, **red.diagnostics}
+        stages["redundancy"] = {"status": red.status.value, **red.diagnostics}
         if red.status is not RedundancyStatus.OK:
+            stages["redundancy"]["time_s"] = time.perf_counter() - t0
             return fail(PlanStatus.REDUNDANCY_FAILED, red.reason)
-
-        # 3. Timing of the optimised profile and the baselines; keep the fastest clear one.
-        t0 = time.perf_counter()
-        n_grid = max(40, int(np.ceil(spline.length / 0.1)) + 1)
-        s_grid = np.linspace(0.0, spline.length, n_grid)
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
         p_grid = spline(s_grid)
-        # Candidate profiles are screened with the arm-clearance margin at tip steps of that margin;
-        # the chosen trajectory is then verified exactly at <= verify_tip_spacing_m (stage 4).
-        s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.arm_clearance_m)) + 1)
-        p_check = spline(s_check)
         degree = o.redundancy.degree
-        q4_end = red.profile.control_points[-1]
         candidates = {
             "optimised": red.profile,
             "constant": TelescopeProfile.constant(start_q[3], spline.length, degree),
-            "linear": TelescopeProfile.linear(start_q[3], q4_end, spline.length, degree),
+            "linear": TelescopeProfile.linear(start_q[3], red.profile.control_points[-1], spline.length, degree),
         }
-        timed: dict[str, Any] = {}
-        notes: dict[str, str] = {}
-        for name, profile in candidates.items():
-            q_grid, ok = joint_path(crane, p_grid, profile, s_grid, start_q[0])
-            q_chk, ok_chk = joint_path(crane, p_check, profile, s_check, start_q[0])
-            if not (ok.all() and ok_chk.all()):
-                notes[name] = "leaves the joint limits or the reachable set"
-                continue
-            if self._arm_checker.configurations_in_collision(q_chk, o.loaded).any():
-                notes[name] = f"the arm comes within {o.arm_clearance_m} m of an obstacle"
-                continue
-            timing = time_scale(s_grid, q_grid, self.limits, dt=o.dt_s)
-            if timing.status is not TimingStatus.OK:
-                notes[name] = timing.reason
-                continue
-            timed[name] = timing
-        baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}
-        stages["timing"] = {
-            "time_s": time.perf_counter() - t0,
-            "durations_s": {k: v.duration_s for k, v in timed.items()},
-            "rejected": notes,
-        }
-        if not timed:
-            stages["timing"]["status"] = "failed"
-            return PlanResult(
-                PlanStatus.TIMING_FAILED,
-                "no telescope profile could be timed: " + "; ".join(f"{k}: {v}" for k, v in notes.items()),
-                None,
-                stages,
-                baselines,
-            )
-        chosen = min(timed, key=lambda k: timed[k].duration_s)
-        timing = timed[chosen]
-        stages["timing"]["status"] = "ok"
-        stages["timing"]["profile"] = chosen
+        q_paths, rejected = self._screen(candidates, spline, s_grid, p_grid, start_q[0])
+        if not q_paths:
+            ends = np.linspace(crane.q_min[3], crane.q_max[3], 5)
+            fallbacks = {
+                f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+                for end in ends
+            }
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
+            rejected.update(more)
+            candidates.update(fallbacks)
+        stages["redundancy"].update(time_s=time.perf_counter() - t0, rejected=rejected)
+        if not q_paths:
+            reasons = sorted(set(rejected.values()))
+            return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(reasons))
 
-        # 4. Verification.
-        t0 = time.perf_counter()
-        problems = self.verify(timing.t, timing.q, timing.qd, timing.qdd)
-        stages["verification"] = {
-            "status": "ok" if not problems else "failed",
-            "time_s": time.perf_counter() - t0,
-            "problems": problems[:10],
-        }
-        if problems:
-            return PlanResult(PlanStatus.VERIFICATION_FAILED, problems[0], None, stages, baselines)
+        # 3-4. Timing of every usable profile, then dense verification of the fastest. TOPPRA
+        #    enforces its constraints at grid points only; if the samples between them overshoot
+        #    a limit by more than the 1 % tolerance, all profiles are re-timed under a safety
+        #    factor on a denser grid (baselines included, so the comparison stays fair).
+        t_timing = t_verify = 0.0
+        for scale, min_grid in TIMING_ATTEMPTS:
+            t0 = time.perf_counter()
+            limits = limits_for(crane, scale)
+            timings = {
+                name: time_scale(s_grid, q, limits, dt=o.dt_s, min_gridpoints=min_grid) for name, q in q_paths.items()
+            }
+            timed = {name: t for name, t in timings.items() if t.status is TimingStatus.OK}
+            baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}
+            stages["timing"] = {
+                "status": "ok" if timed else "failed",
+                "safety_factor": scale,
+                "min_gridpoints": min_grid,
+                "durations_s": {k: v.duration_s for k, v in timed.items()},
+                "rejected": {k: t.reason for k, t in timings.items() if k not in timed},
+            }
+            t_timing += time.perf_counter() - t0
+            stages["timing"]["time_s"] = t_timing
+            if not timed:
+                reasons = "; ".join(f"{k}: {v}" for k, v in stages["timing"]["rejected"].items())
+                return PlanResult(
+                    PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", None, stages, baselines
+                )
+            chosen = min(timed, key=lambda k: timed[k].duration_s)
+            timing = timed[chosen]
+            stages["timing"]["profile"] = chosen
+            t0 = time.perf_counter()
+            report = self.verify(timing.t, timing.q, timing.qd, timing.qdd)
+            t_verify += time.perf_counter() - t0
+            stages["verification"] = {
+                "status": "ok" if report.ok else "failed",
+                "time_s": t_verify,
+                "problems": (report.limits + report.collisions)[:10],
+            }
+            if report.ok or report.collisions:
+                break
+        if not report.ok:
+            first = (report.collisions + report.limits)[0]
+            return PlanResult(PlanStatus.VERIFICATION_FAILED, first, None, stages, baselines)
 
         traj = Trajectory(
             t=timing.t,
@@ -337,20 +380,45 @@ class Planner:
         )
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines)
 
+    def _screen(
+        self, profiles: dict[str, TelescopeProfile], spline: Any, s_grid: np.ndarray, p_grid: np.ndarray, q1: float
+    ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+        """Joint paths (on ``s_grid``) of the profiles that keep the joints within limits and the arm clear.
+
+        The arm is checked with the arm-clearance margin at tip steps of that
+        margin; the chosen trajectory is verified exactly later.
+
+        Returns
+        -------
+        usable : dict
+            Profile name -> joint path (len(s_grid), 4).
+        rejected : dict
+            Profile name -> reason.
+        """
+        o = self.options
+        s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.arm_clearance_m)) + 1)
+        p_check = spline(s_check)
+        usable, rejected = {}, {}
+        for name, profile in profiles.items():
+            q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, q1)
+            q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, q1)
+            if not (ok.all() and ok_chk.all()):
+                rejected[name] = "leaves the joint limits or the reachable set"
+            elif self._arm_checker.configurations_in_collision(q_chk, o.loaded).any():
+                rejected[name] = f"the arm comes within {o.arm_clearance_m} m of an obstacle"
+            else:
+                usable[name] = q_grid
+        return usable, rejected
+
     # ------------------------------------------------------------ verification
-    def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> list[str]:
+    def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> VerificationReport:
         """Dense re-check of a trajectory: limits (1 % tolerance) and collisions.
 
         Collisions are checked with the exact (margin 0) checker at every 200 Hz
         sample, plus joint-linear interpolations wherever consecutive samples
         move the tip more than ``verify_tip_spacing_m``.
-
-        Returns
-        -------
-        list of str
-            One line per problem; empty when the trajectory is valid.
         """
-        problems = [str(v) for v in verify_samples(t, q, qd, qdd, self.limits, tol=0.01)]
+        limits = [str(v) for v in verify_samples(t, q, qd, qdd, self.limits, tol=0.01)]
         tips = self.crane.fk_batch(q)
         step = np.linalg.norm(np.diff(tips, axis=0), axis=1)
         n_sub = np.maximum(1, np.ceil(step / self.options.verify_tip_spacing_m).astype(int))
@@ -362,12 +430,13 @@ class Planner:
             q_check = np.concatenate(pieces)
         else:
             q_check = q
+        collisions = []
         hits = self._exact_checker.configurations_in_collision(q_check, self.options.loaded)
         if hits.any():
             first = q_check[np.argmax(hits)]
             d = self._exact_checker.distance(first, self.options.loaded)
-            problems.append(f"collision of {d.crane_part} with {d.obstacle} at q = {np.round(first, 3).tolist()}")
-        return problems
+            collisions.append(f"collision of {d.crane_part} with {d.obstacle} at q = {np.round(first, 3).tolist()}")
+        return VerificationReport(limits, collisions)
 
     def energy_m3(self, t: np.ndarray, qd: np.ndarray) -> float:
         """Hydraulic energy proxy: displaced oil volume sum_i integral d_i |qd_i| dt (m^3); NaN without hydraulics."""

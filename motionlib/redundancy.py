@@ -412,8 +412,13 @@ def optimise_telescope(
         )
 
     # Initial epigraph values from the initial profile.
+    # The smoothed starting profile may miss the reachable set at some samples (IK gives NaN
+    # there); IPOPT needs finite values, so those samples start from the largest finite slope.
     q_init, _ = joint_path(crane, p, initial, s_m, q1_start)
     dq_init = np.gradient(q_init, s_m, axis=0)
+    finite = np.isfinite(dq_init)
+    fill = np.abs(dq_init[finite]).max(initial=0.0) if finite.any() else 1.0
+    dq_init = np.where(finite, dq_init, fill)
     tau0 = np.maximum(dq_init / crane.qd_max, dq_init / crane.qd_min).max(axis=1)
     if nlp.has_flow:
         tau0 = np.maximum(tau0, np.abs(dq_init) @ np.asarray(crane.model.displacement) / crane.model.pump_flow)

@@ -1,0 +1,34 @@
+"""``motionlib build``: plan every entry of a library spec into a motion-library file."""
+
+from __future__ import annotations
+
+import click
+
+
+@click.command()
+@click.argument("spec_file", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False), help="Library file to write (HDF5).")
+@click.option(
+    "--workers", type=click.IntRange(min=1), help="Local worker processes [default: all cores]; not with --scheduler."
+)
+@click.option("--scheduler", help="Dask distributed scheduler address (tcp://HOST:PORT): plan on its workers.")
+@click.option("--resume", is_flag=True, help="Finish an interrupted build from its checkpoints (OUTPUT.parts/).")
+def build(spec_file, output, workers, scheduler, resume) -> None:
+    """Build a motion library from SPEC_FILE (libraries/*.yaml, docs/library-spec.md).
+
+    Finished entries are checkpointed in OUTPUT.parts/ as they complete; after an
+    interruption rerun with --resume. Failed entries are recorded in the library
+    with their stage and reason.
+    """
+    from motionlib.build import build_library
+    from motionlib.library_spec import LibrarySpec
+
+    spec = LibrarySpec.load(spec_file)
+    summary = build_library(spec, output, workers=workers, scheduler=scheduler, resume=resume)
+    click.echo(
+        f"built {summary.output}: {summary.n_entries} entries, {summary.n_ok} ok, {summary.n_failed} failed "
+        f"({summary.n_planned} planned in this run, {summary.n_entries - summary.n_planned} from checkpoints) "
+        f"in {summary.wall_time_s:.1f} s"
+    )
+    for stage, reason, count in summary.failures:
+        click.echo(f"  {count:5d} failed at {stage}: {reason}")

@@ -1,0 +1,84 @@
+"""``motionlib select``: pick the trajectory of a motion library for an estimated target (003 eqs. 5.3-5.7).
+
+Imports stay inside the command (no planner, solvers or collision library), so that
+a selection, start-up included, takes well under a second.
+"""
+
+from __future__ import annotations
+
+import math
+
+import click
+
+
+def _finite_or_none(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+@click.command()
+@click.argument("library", type=click.Path(dir_okay=False))
+@click.option("--target", required=True, help="Estimated target tip point x,y,z (m, base frame).")
+@click.option("--current", help="Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: starts not filtered.")
+@click.option(
+    "--utility", type=click.Choice(["time", "energy", "robust"]), default="time", show_default=True,
+    help="time: fastest; energy: least oil; robust: least expected time incl. manual correction (003 eq. 5.7).",
+)
+@click.option("--l1", "l1", type=float, help="Acceptable end-point distance L1 (m) [default 0.3].")
+@click.option("--l2", "l2", type=float, help="Acceptable weighted start distance L2 [default 0.5].")
+@click.option("--sigma", type=float, help="robust: target-estimate error standard deviation (m) [default 0.3].")
+@click.option("--v-manual", type=float, help="robust: manual correction speed (m/s) [default 0.5].")
+@click.option("-n", "--max-candidates", default=5, show_default=True, type=click.IntRange(min=1))
+@click.option("--crane", help="Refuse the library unless it was built for this crane (name or file).")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candidates, crane, as_json) -> None:
+    """Rank the trajectories of LIBRARY that end near TARGET (and start near CURRENT), best first."""
+    from motionlib.checks import parse_csv_floats
+    from motionlib.library import Library
+
+    target_p = parse_csv_floats(target, 3, "--target")
+    current_q = parse_csv_floats(current, 4, "--current") if current else None
+    kw = {"max_candidates": max_candidates}
+    for name, value in (("L1", l1), ("L2", l2), ("sigma_m", sigma), ("v_manual_m_s", v_manual)):
+        if value is not None:
+            kw[name] = value
+    lib = Library.open(library, crane=crane)
+    result = lib.select(target_p, current_q, utility, **kw)
+    if not result.ok:
+        raise click.ClickException(f"{library}: {result.message}")
+    candidates = [
+        {
+            "index": c.index,
+            "entry": int(lib.entry[c.index]),
+            "start": c.start_q.tolist(),
+            "end": c.end_p.tolist(),
+            "duration_s": c.duration_s,
+            "energy_m3": c.energy_m3,
+            "score": c.score,
+            "end_distance_m": c.end_distance_m,
+            "start_distance": _finite_or_none(c.start_distance),
+        }
+        for c in result.candidates
+    ]
+    if as_json:
+        from .output import emit_json
+
+        emit_json(
+            {
+                "library": str(library),
+                "utility": result.utility.value,
+                "target": target_p,
+                "current": current_q,
+                "n_candidates": result.n_candidates,
+                "candidates": candidates,
+            }
+        )
+        return
+    click.echo(f"{result.message} (L1 {result.L1} m" + (f", L2 {result.L2})" if current_q is not None else ")"))
+    header = ("rank", 4), ("index", 6), ("entry", 6), ("duration s", 10), ("energy l", 9), ("score", 9), ("d_end m", 8)
+    click.echo(" ".join(f"{name:>{width}}" for name, width in header) + "  end")
+    for rank, c in enumerate(candidates, start=1):
+        end = ", ".join(f"{v:.3f}" for v in c["end"])
+        click.echo(
+            f"{rank:4d} {c['index']:6d} {c['entry']:6d} {c['duration_s']:10.2f} {c['energy_m3'] * 1e3:9.2f} "
+            f"{c['score']:9.3f} {c['end_distance_m']:8.3f}  [{end}]"
+        )

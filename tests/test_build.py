@@ -1,0 +1,286 @@
+"""Building libraries with the real planner: local pool, kill-and-resume, Dask cluster, CLI.
+
+A tiny lab-crane spec (8 entries, one of them unreachable) keeps these tests to
+seconds. The reference library is built once in-process; the others must have the
+same content (index arrays, entry table and trajectories; wall-clock records aside).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from cli.main import cli
+from motionlib import Library
+from motionlib.build import LogProgress, RichProgress, build_library, parts_dir_for
+from motionlib.errors import InputError, LibraryFileError
+from motionlib.library_spec import LibrarySpec
+from motionlib.planner import Planner, PlanOptions
+
+ROOT = Path(__file__).resolve().parents[1]
+BIN = Path(sys.executable).parent
+MOTIONLIB = str(BIN / "motionlib")
+DASK = str(BIN / "dask")
+UNREACHABLE = [9.0, 0.0, 1.0]  # beyond the lab crane's 4.5 m reach
+
+TINY = {
+    "name": "tiny",
+    "crane": "lab",
+    "scene": str(ROOT / "obstacles" / "log-loading.yaml"),
+    "seed": 11,
+    "motions": [
+        {
+            "name": "out",
+            "starts": ["target-center"],
+            "targets": {"points": ["pickup-a", "pickup-b", "pickup-between", UNREACHABLE]},
+        },
+        {
+            "name": "back",
+            "loaded": True,
+            "starts": ["pickup-a", "pickup-b"],
+            "targets": {"points": ["target-center", [3.0, 0.4, 1.2]]},
+        },
+    ],
+}
+N_ENTRIES = 8
+
+
+def content_digest(path: Path) -> str:
+    """SHA-256 over everything a build determines, read with plain h5py.
+
+    Every dataset and attribute, except the wall-clock records: the root ``build``
+    and ``spec`` (which holds the spec's file name) attributes, ``entries/plan_time_s``
+    and the trajectories' ``stages`` attribute (per-stage times).
+    """
+    h = hashlib.sha256()
+
+    def add_attrs(name: str, obj: h5py.HLObject) -> None:
+        for key in sorted(obj.attrs):
+            if (name == "/" and key in ("build", "spec")) or key == "stages":
+                continue
+            h.update(f"{name}@{key}={obj.attrs[key]!r}".encode())
+
+    def visit(name: str, obj: h5py.HLObject) -> None:
+        add_attrs(name, obj)
+        if isinstance(obj, h5py.Dataset) and name != "entries/plan_time_s":
+            h.update(name.encode())
+            data = obj.asstr()[()].tolist() if obj.dtype.kind == "O" else obj[()]
+            h.update(json.dumps(data).encode() if obj.dtype.kind == "O" else np.ascontiguousarray(data).tobytes())
+
+    with h5py.File(path, "r") as f:
+        add_attrs("/", f)
+        f.visititems(visit)
+    return h.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def tiny_spec(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("spec") / "tiny.yaml"
+    path.write_text(yaml.safe_dump(TINY, sort_keys=False))
+    return path
+
+
+@pytest.fixture(scope="module")
+def reference(tiny_spec, tmp_path_factory):
+    """The tiny library built in-process on a local pool of 2 workers."""
+    out = tmp_path_factory.mktemp("ref") / "tiny.h5"
+    log = io.StringIO()
+    summary = build_library(LibrarySpec.load(tiny_spec), out, workers=2, progress=LogProgress(log))
+    return out, summary, log.getvalue()
+
+
+def test_reference_build(reference, tiny_spec):
+    out, summary, log = reference
+    assert (summary.n_entries, summary.n_planned) == (N_ENTRIES, N_ENTRIES)
+    assert summary.n_ok + summary.n_failed == N_ENTRIES and summary.n_failed >= 1
+    assert not parts_dir_for(out).exists()
+    lib = Library.open(out, crane="lab")
+    assert (lib.n_entries, lib.n_ok, len(lib)) == (N_ENTRIES, summary.n_ok, summary.n_ok)
+    failed = [e for e in lib.entries if not e.ok]
+    unreachable = [e for e in lib.entries if list(e.target_p) == UNREACHABLE]
+    assert unreachable[0] in failed and unreachable[0].stage == "query" and "unreachable" in unreachable[0].reason
+    assert sum(n for _, _, n in summary.failures) == summary.n_failed
+    # plain log lines, one per entry, with the counters
+    lines = [ln for ln in log.splitlines() if ln.startswith("[")]
+    assert len(lines) == N_ENTRIES and lines[-1].startswith(f"[{N_ENTRIES}/{N_ENTRIES}] {summary.n_failed} failed")
+    assert "FAILED query" in log and "ETA" in lines[0]
+
+
+def test_entries_equal_independent_plans(reference):
+    """A library trajectory is what a fresh Planner gives for the entry's seed and load (no build machinery)."""
+    lib = Library.open(reference[0])
+    spec = LibrarySpec.load(lib.metadata("spec")["source"])
+    scene, crane = spec.scene, spec.crane
+    for e in lib.entries:
+        if e.ok and e.motion == "back":
+            break
+    result = Planner(crane, scene, PlanOptions(seed=e.seed, loaded=e.loaded)).plan(e.start_q, e.target_p)
+    traj = lib.trajectory(e.row)
+    np.testing.assert_array_equal(traj.q, result.trajectory.q)
+    np.testing.assert_array_equal(traj.t, result.trajectory.t)
+    assert lib.duration_s[e.row] == result.trajectory.duration_s
+    np.testing.assert_allclose(lib.end_p[e.row], crane.fk(traj.q[-1]), atol=1e-12)
+    np.testing.assert_allclose(lib.end_p[e.row], e.target_p, atol=1e-6)
+    np.testing.assert_array_equal(lib.start_q[e.row], e.start_q)
+
+
+def test_content_digest_detects_a_change(reference, tmp_path):
+    copy = tmp_path / "copy.h5"
+    shutil.copy(reference[0], copy)
+    assert content_digest(copy) == content_digest(reference[0])
+    with h5py.File(copy, "r+") as f:
+        name = sorted(f["trajectories"])[0]
+        q = f[f"trajectories/{name}/q"]
+        q[5, 1] = q[5, 1] + 1e-12
+    assert content_digest(copy) != content_digest(reference[0])
+
+
+def _count_parts(parts: Path) -> int:
+    return len(list(parts.glob("[0-9]*.h5"))) if parts.exists() else 0
+
+
+def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
+    out = tmp_path / "killed.h5"
+    parts = parts_dir_for(out)
+    cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out)]
+    with open(tmp_path / "first.log", "w") as log:
+        proc = subprocess.Popen([*cmd, "--workers", "1"], stdout=log, stderr=log, start_new_session=True)
+        try:
+            deadline = time.monotonic() + 120
+            while _count_parts(parts) < 2:
+                assert proc.poll() is None, "the build ended before it could be killed"
+                assert time.monotonic() < deadline, "no checkpoints within 120 s"
+                time.sleep(0.01)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)  # the build and its worker processes, at once
+            proc.wait(timeout=30)
+    finished = _count_parts(parts)
+    assert 2 <= finished < N_ENTRIES and not out.exists()
+
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert again.returncode == 1 and "--resume" in again.stderr and again.stderr.count("\n") == 1
+    assert _count_parts(parts) == finished
+
+    resumed = subprocess.run([*cmd, "--resume", "--workers", "2"], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{finished} checkpointed" in resumed.stderr
+    assert f"{N_ENTRIES - finished} planned in this run" in resumed.stdout
+    assert not parts.exists()
+    assert content_digest(out) == content_digest(reference[0])
+
+
+def test_resume_refuses_checkpoints_of_another_spec(tiny_spec, tmp_path):
+    out = tmp_path / "lib.h5"
+    parts = parts_dir_for(out)
+    parts.mkdir()
+    (parts / "manifest.json").write_text(json.dumps({"spec_digest": "0" * 64}))
+    with pytest.raises(LibraryFileError, match="checkpoints of a different spec"):
+        build_library(LibrarySpec.load(tiny_spec), out, resume=True, progress=LogProgress(io.StringIO()))
+    with pytest.raises(InputError, match="rerun with --resume"):
+        build_library(LibrarySpec.load(tiny_spec), out, progress=LogProgress(io.StringIO()))
+    assert sorted(p.name for p in parts.iterdir()) == ["manifest.json"] and not out.exists()
+
+
+@contextlib.contextmanager
+def dask_cluster(tmp_path: Path, n_workers: int = 2):
+    """A real Dask scheduler and ``n_workers`` single-threaded workers on 127.0.0.1, ephemeral ports."""
+    scheduler_file = tmp_path / "scheduler.json"
+    procs: list[subprocess.Popen] = []
+    logs = []
+
+    def start(args: list[str], name: str) -> None:
+        log = open(tmp_path / f"{name}.log", "w")  # noqa: SIM115 (closed below)
+        logs.append(log)
+        procs.append(subprocess.Popen(args, stdout=log, stderr=log, start_new_session=True, cwd=tmp_path))
+
+    try:
+        start(
+            [DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+             "--scheduler-file", str(scheduler_file), "--idle-timeout", "300"],
+            "scheduler",
+        )
+        deadline = time.monotonic() + 60
+        while not scheduler_file.exists():
+            assert procs[0].poll() is None, (tmp_path / "scheduler.log").read_text()
+            assert time.monotonic() < deadline, "the Dask scheduler did not start within 60 s"
+            time.sleep(0.05)
+        time.sleep(0.1)  # the file is written in one go, but give the writer a moment
+        address = json.loads(scheduler_file.read_text())["address"]
+        for i in range(n_workers):
+            start(
+                [DASK, "worker", address, "--nthreads", "1", "--name", f"w{i}", "--host", "127.0.0.1",
+                 "--no-dashboard", "--death-timeout", "60", "--local-directory", str(tmp_path / f"w{i}")],
+                f"worker{i}",
+            )
+        yield address
+    finally:
+        for proc in reversed(procs):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGTERM)
+        for proc in reversed(procs):
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait(timeout=15)
+        for log in logs:
+            log.close()
+
+
+def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
+    out = tmp_path / "dask.h5"
+    with dask_cluster(tmp_path) as address:
+        assert address.startswith("tcp://127.0.0.1:")
+        spec = LibrarySpec.load(tiny_spec)
+        summary = build_library(spec, out, scheduler=address, progress=LogProgress(io.StringIO()))
+    assert summary.n_planned == N_ENTRIES and summary.n_ok == reference[1].n_ok
+    assert Library.open(out).metadata("build")["executor"] == f"dask {address}"
+    assert content_digest(out) == content_digest(reference[0])
+
+
+def test_rich_progress_on_a_terminal():
+    from rich.console import Console
+
+    from motionlib.build import EntryOutcome
+
+    buf = io.StringIO()
+    progress = RichProgress(Console(file=buf, force_terminal=True, width=150))
+    entries = LibrarySpec.from_dict(TINY).entries()
+    progress.start(N_ENTRIES, 2, 0)
+    progress.update(entries[2], EntryOutcome(2, "", "", 0.3, None, None))
+    progress.update(entries[3], EntryOutcome(3, "path", "no path found", 0.3, None, None))
+    progress.close()
+    text = buf.getvalue()
+    assert "4/8" in text and "1 failed" in text and "ETA" in text and "/s" in text
+    assert "failed path: no path found" in text
+
+
+# ---------------------------------------------------------------- CLI on the built library
+def test_cli_select_and_inspect_on_the_built_library(reference, tmp_path):
+    out = reference[0]
+    lib = Library.open(out)
+    p = lib.end_p[0] + np.array([0.05, 0.0, 0.0])
+    result = CliRunner().invoke(cli, ["select", str(out), "--target", ",".join(map(str, p)), "--json"])
+    assert result.exit_code == 0, result.output
+    best = json.loads(result.output)["candidates"][0]
+    assert best["index"] == lib.select(p).indices[0] and best["end"] == lib.end_p[best["index"]].tolist()
+    report = json.loads(CliRunner().invoke(cli, ["inspect", str(out), "--json"]).output)
+    assert (report["entries"], report["ok"], report["failed"]) == (N_ENTRIES, lib.n_ok, lib.n_failed)
+    assert report["failures"][0]["stage"] == "query"
+    assert report["statistics"]["energy_m3"]["max"] == lib.energy_m3.max()

@@ -1,0 +1,436 @@
+"""Library files: writer/reader round trip, selection through a library, bad input.
+
+Libraries here are written through :class:`LibraryWriter` from synthetic trajectories
+(no planning), so the tests are fast; tests/test_build.py builds real ones.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cli.main import cli
+from motionlib import Library
+from motionlib.errors import InputError, LibraryFileError
+from motionlib.kinematics import Crane
+from motionlib.library import EntryRecord, IndexRow, LibraryWriter, entry_id
+from motionlib.scene import Scene
+from motionlib.selection import DEFAULT_START_WEIGHTS
+from motionlib.trajectory import Trajectory
+
+ROOT = Path(__file__).resolve().parents[1]
+LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
+STARTS = np.array([[0.0, 0.5235, -1.4434, 0.4], [1.5708, 0.482, -1.4267, 0.4], [2.4038, 0.4893, -1.4462, 0.4]])
+
+
+def synthetic_trajectory(crane: Crane, q0: np.ndarray, q1: np.ndarray, duration_s: float, n: int = 24) -> Trajectory:
+    """A smooth-step joint motion q0 -> q1 sampled at n points, with the attributes the library needs."""
+    t = np.linspace(0.0, duration_s, n)
+    u = t / duration_s
+    s = 3 * u**2 - 2 * u**3
+    ds = (6 * u - 6 * u**2) / duration_s
+    dds = (6 - 12 * u) / duration_s**2
+    dq = q1 - q0
+    q = q0 + s[:, None] * dq
+    tips = crane.fk_batch(q)
+    seg = np.linalg.norm(np.diff(tips, axis=0), axis=1)
+    path_s = np.concatenate([[0.0], np.cumsum(seg)])
+    return Trajectory(
+        t=t,
+        q=q,
+        qd=ds[:, None] * dq,
+        qdd=dds[:, None] * dq,
+        path_s=path_s,
+        path_tip=tips,
+        waypoints=tips[[0, n // 2, -1]],
+        spline_breakpoints=path_s[[0, n // 2, -1]],
+        spline_coefficients=np.zeros((4, 2, 3)),
+        telescope_control_points=np.full(6, q0[3]),
+        attrs={
+            "duration_s": duration_s,
+            "path_length_m": float(path_s[-1]),
+            "energy_m3": float(np.abs(dq) @ np.array([1e-3, 2e-3, 2e-3, 1e-3])),
+            "min_clearance_m": 0.2,
+            "crane": crane.name,
+            "loaded": False,
+            "seed": 1,
+            "start_q": q0.tolist(),
+            "stages": {"path": {"status": "ok", "time_s": 0.1}},
+        },
+    )
+
+
+def _record(i: int, q0: np.ndarray, target: np.ndarray, ok: bool) -> EntryRecord:
+    return EntryRecord(
+        index=i, key=f"m|s{i % 3}|t{i}", motion="m", start=f"s{i % 3}", start_q=q0, target=f"t{i}",
+        target_p=target, loaded=False, seed=1000 + i, status="ok" if ok else "failed",
+        stage="" if ok else "path", reason="" if ok else f"no path within 2.0 s ({i})", plan_time_s=0.5,
+    )
+
+
+def write_synthetic(path: Path, n: int, seed: int, fail_every: int = 0) -> dict:
+    """A library of ``n`` entries between random reachable configurations; returns what was written."""
+    crane, scene = Crane.load("lab"), Scene.load(LAB_SCENE)
+    rng = np.random.default_rng(seed)
+    span = crane.q_max - crane.q_min
+    written = {"records": [], "rows": [], "trajs": []}
+    with LibraryWriter(path, "synthetic", crane, scene, {"name": "synthetic"}, {"by": "test"}) as w:
+        for i in range(n):
+            q0 = STARTS[i % 3]
+            q1 = crane.q_min + span * rng.uniform(0.1, 0.9, 4)
+            q1[0] = rng.uniform(-2.5, 2.5)
+            traj = synthetic_trajectory(crane, q0, q1, float(rng.uniform(3.0, 9.0)))
+            ok = not (fail_every and i % fail_every == fail_every - 1)
+            record = _record(i, q0, traj.path_tip[-1], ok)
+            row = IndexRow.from_trajectory(traj, crane, q0) if ok else None
+            w.add(record, row, traj if ok else None)
+            written["records"].append(record)
+            if ok:
+                written["rows"].append(row)
+                written["trajs"].append(traj)
+    return written
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    path = tmp_path_factory.mktemp("lib") / "synthetic.h5"
+    written = write_synthetic(path, 300, seed=11, fail_every=7)
+    return path, written
+
+
+def _sha(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+# ---------------------------------------------------------------- round trip
+def test_round_trip(synthetic):
+    path, written = synthetic
+    lib = Library.open(path)
+    rows = written["rows"]
+    assert len(lib) == len(rows) == lib.n_ok and lib.n_entries == 300 and lib.n_failed == 300 - len(rows)
+    for key in ("start_q", "end_p", "duration_s", "energy_m3", "path_length_m", "clearance_m", "approach_p"):
+        np.testing.assert_array_equal(getattr(lib, key), np.stack([getattr(r, key) for r in rows]), err_msg=key)
+    ok_indices = [r.index for r in written["records"] if r.ok]
+    np.testing.assert_array_equal(lib.entry, ok_indices)
+    for i in (0, 17, len(lib) - 1):
+        got, want = lib.trajectory(i), written["trajs"][i]
+        for key in ("t", "q", "qd", "qdd", "path_tip", "spline_coefficients", "telescope_control_points"):
+            np.testing.assert_array_equal(getattr(got, key), getattr(want, key))
+        assert got.attrs["stages"] == want.attrs["stages"] and got.attrs["duration_s"] == want.attrs["duration_s"]
+    records = lib.entries
+    assert [r.key for r in records] == [r.key for r in written["records"]]
+    assert [r.row for r in records if r.ok] == list(range(len(lib)))
+    failed = [r for r in records if not r.ok]
+    assert failed and all(r.row == -1 and r.stage == "path" and r.reason.startswith("no path") for r in failed)
+
+
+def test_layout_is_plain_hdf5(synthetic):
+    """The documented layout, read with h5py alone."""
+    path, written = synthetic
+    crane = Crane.load("lab")
+    with h5py.File(path, "r") as f:
+        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 1
+        assert json.loads(f.attrs["crane_model"][5:]) == json.loads(json.dumps(crane.model.to_dict()))
+        assert json.loads(f.attrs["scene_model"][5:])["name"] == "log-loading"
+        assert f.attrs["crane_digest"] == crane.model.digest
+        n = f.attrs["n_ok"]
+        assert f["index/start_q"].shape == (n, 4) and f["index/approach_t"].shape[0] == n
+        assert f["index/duration_s"].fletcher32
+        status = f["entries/status"].asstr()[()]
+        assert (status == "ok").sum() == n and len(status) == f.attrs["n_entries"]
+        first = f["index/entry"][0]
+        traj = f[f"trajectories/{entry_id(first)}"]
+        assert traj["q"].compression == "gzip" and traj["q"].chunks is not None
+        assert len(f["trajectories"]) == n
+
+
+def test_index_rows_match_their_trajectories(synthetic):
+    path, _ = synthetic
+    lib = Library.open(path)
+    crane = Crane.load("lab")
+    for i in (0, 5, len(lib) - 1):
+        traj = lib.trajectory(i)
+        np.testing.assert_allclose(lib.end_p[i], crane.fk(traj.q[-1]), atol=1e-12)
+        assert lib.duration_s[i] == traj.t[-1] == lib.approach_t[i, -1]
+        np.testing.assert_allclose(lib.approach_p[i, -1], lib.end_p[i], atol=1e-12)
+        assert np.all(np.diff(lib.approach_t[i]) >= 0)
+
+
+# ---------------------------------------------------------------- selection
+def _brute_force(lib: Library, p: np.ndarray, qc: np.ndarray | None, score: np.ndarray, l1: float, l2: float):
+    """Rows passing eqs. 5.3-5.4 by a full scan, ranked by score (high first), ties by row."""
+    d1 = np.sqrt(((lib.end_p - p) ** 2).sum(axis=1))
+    ok = d1 <= l1
+    if qc is not None:
+        d2 = np.sqrt((((lib.start_q - qc) * np.asarray(DEFAULT_START_WEIGHTS)) ** 2).sum(axis=1))
+        ok &= d2 <= l2
+    rows = np.flatnonzero(ok)
+    return sorted(rows.tolist(), key=lambda r: (-score[r], r))
+
+
+def _expected_time_loop(lib: Library, row: int, p_est: np.ndarray, sigma: float, v: float) -> float:
+    """The robust model (003 eq. 5.7, selection module docstring) by plain loops over samples and segments."""
+    total = 0.0
+    z = lib.index.unit_samples
+    for k in range(z.shape[0]):
+        p_true = p_est + sigma * z[k]
+        best = None
+        for j in range(lib.approach_p.shape[1] - 1):
+            a, b = lib.approach_p[row, j], lib.approach_p[row, j + 1]
+            seg = b - a
+            u = 0.0 if seg @ seg == 0 else float(np.clip((p_true - a) @ seg / (seg @ seg), 0.0, 1.0))
+            d = float(np.linalg.norm(p_true - (a + u * seg)))
+            if best is None or d < best[0] - 1e-12:
+                t0, t1 = lib.approach_t[row, j], lib.approach_t[row, j + 1]
+                best = (d, t0 + u * (t1 - t0))
+        total += best[1] + best[0] / v
+    return total / z.shape[0]
+
+
+def test_select_matches_brute_force(synthetic):
+    path, _ = synthetic
+    lib = Library.open(path)
+    rng = np.random.default_rng(5)
+    checked = 0
+    for _ in range(150):
+        p = lib.end_p[rng.integers(len(lib))] + rng.normal(0.0, 0.15, 3)
+        qc = None if rng.random() < 0.3 else STARTS[rng.integers(3)] + rng.normal(0.0, 0.02, 4)
+        utility = ["time", "energy"][rng.integers(2)]
+        l1 = float(rng.uniform(0.1, 0.6))
+        score = -lib.duration_s if utility == "time" else -lib.energy_m3
+        want = _brute_force(lib, p, qc, score, l1, 0.5)
+        res = lib.select(p, qc, utility, L1=l1, max_candidates=1000)
+        assert res.ok == bool(want)
+        if want:
+            assert res.indices.tolist() == want
+            checked += 1
+        else:
+            nearest = np.sqrt(((lib.end_p - p) ** 2).sum(axis=1)).min()
+            if nearest > l1:
+                assert f"nearest is {nearest:.3f} m away" in res.message
+    assert checked > 50
+
+
+def test_select_robust_matches_loop_reference(synthetic):
+    path, _ = synthetic
+    lib = Library.open(path)
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        p = lib.end_p[rng.integers(len(lib))] + rng.normal(0.0, 0.1, 3)
+        res = lib.select(p, None, "robust", L1=0.5, sigma_m=0.2, v_manual_m_s=0.4, max_candidates=1000)
+        rows = _brute_force(lib, p, None, np.zeros(len(lib)), 0.5, np.inf)
+        ref = {r: _expected_time_loop(lib, r, p, 0.2, 0.4) for r in rows}
+        assert res.indices.tolist() == sorted(rows, key=lambda r: (ref[r], r))
+        np.testing.assert_allclose(-res.scores, [ref[r] for r in res.indices.tolist()], rtol=1e-9)
+
+
+def test_robust_prefers_the_approach_near_the_likely_target(tmp_path):
+    """003 eq. 5.7 / Fig. 5.1 through a library file: two equally fast trajectories to one end point; the one
+    whose approach passes where the true target probably is (the estimate lies off the end point, on its side)
+    wins under ``robust``, while ``time`` ties and takes the lower row."""
+    crane, scene = Crane.load("lab"), Scene.load(LAB_SCENE)
+    q0 = STARTS[0]
+    end = np.array([3.0, 0.0, 1.0])
+    p_est = end + np.array([0.0, 0.3, 0.0])  # the operator pointed 0.3 m to +y of the library end point
+    k = 8
+    s = np.linspace(1.0, 0.0, k)[:, None]
+    near = end + s * np.array([0.0, 2.0, 0.5])  # arrives from +y, passing p_est
+    far = end + s * np.array([0.0, -2.0, 0.5])  # arrives from -y, away from it
+    t = np.linspace(4.0, 6.0, k)
+    with LibraryWriter(tmp_path / "two.h5", "two", crane, scene, {}, {}) as w:
+        for i, approach in enumerate((far, near)):
+            traj = synthetic_trajectory(crane, q0, q0 + 0.1, 6.0)
+            row = IndexRow(q0, end, 6.0, 0.001, 3.0, 0.2, approach, t)
+            w.add(_record(i, q0, end, True), row, traj)
+    lib = Library.open(tmp_path / "two.h5")
+    assert lib.select(p_est, q0, "time").indices.tolist() == [0, 1]
+    robust = lib.select(p_est, q0, "robust", sigma_m=0.2)
+    assert robust.indices.tolist() == [1, 0]
+    assert robust.scores[0] > robust.scores[1] + 0.1
+    # Expected total time, by the loop reference: the near approach saves manual correction time.
+    assert -robust.scores[0] == pytest.approx(_expected_time_loop(lib, 1, p_est, 0.2, 0.5), rel=1e-9)
+
+
+def test_empty_library_opens_but_cannot_select(tmp_path):
+    path = tmp_path / "failed.h5"
+    write_synthetic(path, 4, seed=1, fail_every=1)
+    lib = Library.open(path)
+    assert len(lib) == 0 and lib.n_failed == 4 and lib.start_q.shape == (0, 4)
+    with pytest.raises(InputError, match="no successful entries"):
+        lib.select([3.0, 0.0, 1.0])
+
+
+# ---------------------------------------------------------------- writer safety
+def test_writer_leaves_nothing_on_error(tmp_path, synthetic):
+    path = tmp_path / "lib.h5"
+    shutil.copy(synthetic[0], path)
+    before = _sha(path)
+    crane, scene = Crane.load("lab"), Scene.load(LAB_SCENE)
+    with pytest.raises(RuntimeError, match="boom"):
+        with LibraryWriter(path, "x", crane, scene, {}, {}) as w:
+            traj = synthetic_trajectory(crane, STARTS[0], STARTS[1], 5.0)
+            row = IndexRow.from_trajectory(traj, crane, STARTS[0])
+            w.add(_record(0, STARTS[0], traj.path_tip[-1], True), row, traj)
+            raise RuntimeError("boom")
+    assert _sha(path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lib.h5"]
+    with pytest.raises(InputError, match="expected entry 0"):
+        with LibraryWriter(tmp_path / "new.h5", "x", crane, scene, {}, {}) as w:
+            w.add(_record(1, STARTS[0], np.zeros(3), False))
+    assert not (tmp_path / "new.h5").exists()
+
+
+# ---------------------------------------------------------------- bad input
+def _truncated(src: Path, dst: Path) -> None:
+    data = src.read_bytes()
+    dst.write_bytes(data[: len(data) // 2])
+
+
+def _corrupted(src: Path, dst: Path) -> None:
+    shutil.copy(src, dst)
+    with h5py.File(dst, "r") as f:
+        offset = f["index/duration_s"].id.get_chunk_info(0).byte_offset
+    with open(dst, "r+b") as handle:
+        handle.seek(offset + 8)
+        handle.write(b"\x13\x37\x13\x37")
+
+
+def _not_hdf5(src: Path, dst: Path) -> None:
+    dst.write_text("name: not a library\n")
+
+
+def _other_hdf5(src: Path, dst: Path) -> None:
+    with h5py.File(dst, "w") as f:
+        f["q"] = np.zeros((3, 4))
+        f.attrs["schema"] = "motionlib.trajectory"
+
+
+def _newer(src: Path, dst: Path) -> None:
+    shutil.copy(src, dst)
+    with h5py.File(dst, "r+") as f:
+        f.attrs["schema_version"] = 2
+
+
+def _missing_index(src: Path, dst: Path) -> None:
+    shutil.copy(src, dst)
+    with h5py.File(dst, "r+") as f:
+        del f["index/end_p"]
+
+
+BAD_FILES = [
+    (_truncated, r"truncated or corrupt"),
+    (_corrupted, r"truncated or corrupt"),
+    (_not_hdf5, r"truncated or corrupt"),
+    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.trajectory'"),
+    (_newer, r"schema version 2 is newer than this motionlib reads \(1\)"),
+    (_missing_index, r"/index/end_p is missing"),
+]
+
+
+@pytest.mark.parametrize(("make", "message"), BAD_FILES, ids=[m.__name__.strip("_") for m, _ in BAD_FILES])
+def test_bad_files_one_line_error_nothing_modified(tmp_path, synthetic, make, message):
+    bad = tmp_path / "bad.h5"
+    make(synthetic[0], bad)
+    before = _sha(bad)
+    with pytest.raises(LibraryFileError, match=message) as info:
+        Library.open(bad)
+    assert "\n" not in str(info.value) and str(bad) in str(info.value)
+    assert _sha(bad) == before
+    result = CliRunner().invoke(cli, ["select", str(bad), "--target", "3,0,1"])
+    assert result.exit_code == 1 and result.output.count("\n") == 1 and result.output.startswith("Error: ")
+    assert _sha(bad) == before
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(LibraryFileError, match="no such library file"):
+        Library.open(tmp_path / "nope.h5")
+
+
+def test_library_for_another_crane(tmp_path, synthetic):
+    path = synthetic[0]
+    before = _sha(path)
+    Library.open(path, crane="lab")  # the right crane
+    with pytest.raises(LibraryFileError, match="built for crane 'lab', not for crane 'forwarder'") as info:
+        Library.open(path, crane=Crane.load("forwarder"))
+    assert "\n" not in str(info.value)
+    changed = tmp_path / "lab.yaml"
+    text = (ROOT / "motionlib" / "cranes" / "lab.yaml").read_text()
+    changed.write_text(text.replace("boom_length: 2.0", "boom_length: 2.1", 1))
+    assert "boom_length: 2.1" in changed.read_text()
+    with pytest.raises(LibraryFileError, match="a different model of crane 'lab'"):
+        Library.open(path, crane=str(changed))
+    result = CliRunner().invoke(cli, ["select", str(path), "--target", "3,0,1", "--crane", "forwarder"])
+    assert result.exit_code == 1 and "not for crane 'forwarder'" in result.output and result.output.count("\n") == 1
+    assert _sha(path) == before
+
+
+# ---------------------------------------------------------------- CLI on a synthetic library
+def test_cli_select_json_matches_api(synthetic):
+    path, _ = synthetic
+    lib = Library.open(path)
+    p, qc = lib.end_p[3] + 0.05, STARTS[lib.entry[3] % 3] + 0.01
+    args = ["select", str(path), "--target", ",".join(map(str, p)), "--current", ",".join(map(str, qc)), "--json"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    want = lib.select(p, qc, "time", max_candidates=5)
+    assert [c["index"] for c in out["candidates"]] == want.indices.tolist()
+    first = out["candidates"][0]
+    assert first["end"] == lib.end_p[first["index"]].tolist() and first["start"] == lib.start_q[first["index"]].tolist()
+    assert first["duration_s"] == lib.duration_s[first["index"]] and first["score"] == -first["duration_s"]
+    assert first["entry"] == int(lib.entry[first["index"]])
+    scores = [c["score"] for c in out["candidates"]]
+    assert scores == sorted(scores, reverse=True)
+
+
+def test_cli_select_nothing_within_l1(synthetic):
+    path, _ = synthetic
+    lib = Library.open(path)
+    p = np.array([0.0, 0.0, 4.0])
+    nearest = np.sqrt(((lib.end_p - p) ** 2).sum(axis=1)).min()
+    result = CliRunner().invoke(cli, ["select", str(path), "--target", "0,0,4"])
+    assert result.exit_code == 1 and result.output.count("\n") == 1
+    assert f"nearest is {nearest:.3f} m away" in result.output
+
+
+def test_cli_inspect_counts_and_plot(synthetic, tmp_path):
+    path, written = synthetic
+    result = CliRunner().invoke(cli, ["inspect", str(path), "--json", "--plot", str(tmp_path / "plots")])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)
+    n_ok = len(written["rows"])
+    assert (report["entries"], report["ok"], report["failed"]) == (300, n_ok, 300 - n_ok)
+    assert report["failures"] == [{"stage": "path", "reason": "no path within # s (#)", "count": 300 - n_ok}]
+    durations = np.array([r.duration_s for r in written["rows"]])
+    stats = report["statistics"]["duration_s"]
+    assert stats["min"] == durations.min() and stats["max"] == durations.max()
+    assert stats["median"] == pytest.approx(np.median(durations), rel=1e-12)
+    png = Path(report["plot"])
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = CliRunner().invoke(cli, ["inspect", str(path)])
+    assert text.exit_code == 0 and f"ok: {n_ok}, failed: {300 - n_ok}" in text.output
+
+
+def test_cli_select_does_not_import_the_planner_stack(synthetic):
+    """``motionlib select`` stays light: no CasADi, TOPPRA, OMPL or FCL in the process (start-up time)."""
+    import subprocess
+    import sys
+
+    lib = Library.open(synthetic[0])
+    target = ",".join(map(str, lib.end_p[0]))
+    code = (
+        "import sys\n"
+        "from cli.main import cli\n"
+        f"cli(['select', {str(synthetic[0])!r}, '--target', {target!r}, '--json'], standalone_mode=False)\n"
+        "heavy = sorted({m.split('.')[0] for m in sys.modules} & {'casadi', 'toppra', 'ompl', 'fcl', 'matplotlib'})\n"
+        "print('HEAVY', heavy)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True).stdout
+    assert '"candidates"' in out and "HEAVY []" in out
