@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +11,7 @@ from scipy.optimize import minimize
 
 from motionlib.kinematics import Crane
 from motionlib.model import JOINT_NAMES
+from motionlib.trajectory import atomic_output
 
 from .output import emit_json
 
@@ -142,23 +141,8 @@ def export_urdf(crane_name: str, output: Path | None) -> None:
 
 def write_atomic(path: Path, text: str) -> None:
     """Write ``text`` to a temporary file next to ``path``, then rename it onto ``path``."""
-    directory = path.parent if str(path.parent) else Path(".")
-    tmp_name = None
     try:
-        with tempfile.NamedTemporaryFile(
-            "w", encoding="utf-8", dir=directory, prefix=f".{path.name}.", suffix=".tmp", delete=False
-        ) as tmp:
-            tmp_name = tmp.name
-            tmp.write(text)
-        os.chmod(tmp_name, 0o666 & ~_umask())  # mkstemp makes 0600 files; give the usual mode
-        os.replace(tmp_name, path)
+        with atomic_output(path) as tmp:
+            tmp.write_text(text, encoding="utf-8")
     except OSError as exc:
-        if tmp_name is not None and os.path.exists(tmp_name):
-            os.unlink(tmp_name)
         raise click.FileError(str(path), hint=exc.strerror or str(exc)) from exc
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import functools
 import json
-import os
 import re
 from collections import Counter
 from collections.abc import Sequence
@@ -260,9 +259,6 @@ class LibraryWriter:
     def __enter__(self) -> LibraryWriter:
         self._stack = ExitStack()
         tmp = self._stack.enter_context(atomic_output(self.path))
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # a library is for sharing: the usual mode, not the temporary file's 0600
         self._file = self._stack.enter_context(h5py.File(tmp, "w"))
         self._file.create_group("trajectories")
         return self

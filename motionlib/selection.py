@@ -76,7 +76,6 @@ from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
-from scipy.stats import qmc
 
 from .checks import check_points, check_scalar, check_vector
 from .errors import InputError
@@ -430,8 +429,23 @@ class SelectionIndex:
                 members = np.flatnonzero(self._start_group == g)
                 self._groups.append((members, cKDTree(self.end_p[members])))
 
-        sampler = qmc.MultivariateNormalQMC(np.zeros(3), rng=np.random.default_rng(sample_seed))
-        self.unit_samples = _frozen(sampler.random(int(n_samples)))
+        self._n_samples = int(n_samples)
+        self._sample_seed = sample_seed
+        self._unit_samples: np.ndarray | None = None
+
+    @property
+    def unit_samples(self) -> np.ndarray:
+        """(n_samples, 3) standard-normal quasi-random samples for eq. 5.7, drawn on first use.
+
+        Drawn lazily so that opening a library and time/energy selection do not
+        import ``scipy.stats`` (a third of ``motionlib select``'s start-up).
+        """
+        if self._unit_samples is None:
+            from scipy.stats import qmc
+
+            sampler = qmc.MultivariateNormalQMC(np.zeros(3), rng=np.random.default_rng(self._sample_seed))
+            self._unit_samples = _frozen(sampler.random(self._n_samples))
+        return self._unit_samples
 
     def _check_approach(self, approach_p: Any, approach_t: Any) -> tuple[np.ndarray | None, np.ndarray | None]:
         if approach_p is None and approach_t is None:
