@@ -22,9 +22,11 @@ COMMANDS: dict[str, str] = {
     "ik": "ik:ik",
     "scene": "scene:scene",
     "plan": "plan:plan",
+    "view": "view:view",
     "build": "build:build",
     "select": "select:select",
     "inspect": "inspect:inspect",
+    "execute": "execute:execute",
 }
 
 

@@ -1,0 +1,126 @@
+"""Benchmark of the runtime: controller step time and closed-loop simulation speed.
+
+Run: ``/work/venv/bin/python benchmarks/runtime.py [--repeat N]``
+
+Scenarios on the lab crane in ``obstacles/log-loading.yaml``, with the trajectories planned here
+(go out: target area -> the fix point between the pick-up areas; go back with a log: pick-up
+area A -> target area) and the obstacle guard on, as ``motionlib execute`` runs them:
+
+* ``M6 passive``: shared Cartesian control, hands off (the library's motion);
+* ``M6 novice`` / ``M6 expert``: shared control, the operator takes over near the target
+  (operator velocity, mixer, obstacle guard with fcl near obstacles);
+* ``M3 novice``: shared control with joint operation (raised weights);
+* ``M5 expert``: traded control (abort, then manual Cartesian);
+* ``M1 expert``: manual joint operation of the whole motion.
+
+Per scenario: the controller's ``step`` time (median, p99, max; every step of one run timed
+with ``perf_counter``), the simulator's ``advance`` time (median), and the closed loop's speed
+as a multiple of real time (simulated seconds per wall second of ``run_closed_loop``, which
+includes the operator model and the 200 Hz log; best of ``--repeat`` runs).
+
+Targets (issue 5): median step <= 50 us; a full cycle simulated >= 200x faster than real time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+
+from motionlib.collision import CollisionChecker
+from motionlib.controller import SharedController
+from motionlib.kinematics import Crane
+from motionlib.mixer import ObstacleGuard
+from motionlib.operators import make_operator
+from motionlib.planner import Planner, PlanOptions
+from motionlib.scene import Scene
+from motionlib.sim import LoopOptions, SimulatedCrane, run_closed_loop
+
+SCENARIOS = (
+    ("M6 passive", "out", "M6", "passive"),
+    ("M6 novice", "out", "M6", "novice"),
+    ("M6 expert", "back", "M6", "expert"),
+    ("M3 novice", "out", "M3", "novice"),
+    ("M5 expert", "out", "M5", "expert"),
+    ("M1 expert", "out", "M1", "expert"),
+)
+
+
+class _Timed:
+    """Wraps ``step`` / ``advance`` to record their durations (ns)."""
+
+    def __init__(self, fn):
+        self.fn = fn
+        self.ns: list[int] = []
+
+    def __call__(self, *args):
+        t0 = time.perf_counter_ns()
+        out = self.fn(*args)
+        self.ns.append(time.perf_counter_ns() - t0)
+        return out
+
+
+def _setup(crane, scene, checkers, traj, mode, operator, target, seed=0):
+    loaded = bool(traj.attrs["loaded"])
+    ctl = SharedController(crane, mode, obstacle_guard=ObstacleGuard(checkers[loaded], loaded=loaded))
+    ctl.start_motion(traj)
+    sim = SimulatedCrane(crane, traj.q[0])
+    op = make_operator(operator, target, ctl.mode, ctl.joystick, crane, seed=seed, via=traj.waypoints[1:-1])
+    return ctl, sim, op
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3, help="closed-loop runs per scenario (best is reported)")
+    args = parser.parse_args()
+    crane = Crane.load("lab")
+    scene = Scene.load("obstacles/log-loading.yaml")
+    checkers = {False: CollisionChecker(crane, scene), True: CollisionChecker(crane, scene)}
+    trajs = {
+        "out": Planner(crane, scene).plan(scene.start("target-center"), scene.point("pickup-between")).trajectory,
+        "back": Planner(crane, scene, PlanOptions(loaded=True)).plan(
+            scene.start("pickup-a"), scene.point("target-center")
+        ).trajectory,
+    }
+    offsets = {"out": np.array([0.1, 0.12, -0.05]), "back": np.array([-0.15, 0.1, 0.05])}
+
+    print(f"python {platform.python_version()}, {platform.machine()}; control rate 200 Hz, simulator 1 kHz substeps")
+    header = (
+        f"{'scenario':<12} {'sim s':>6} {'steps':>6} {'step med us':>11} {'step p99 us':>11} {'step max us':>11} "
+        f"{'sim med us':>10} {'loop us/step':>12} {'x real time':>11} {'fcl calls':>9}"
+    )
+    print(header)
+    print("-" * len(header))
+    all_steps = []
+    for name, which, mode, operator in SCENARIOS:
+        traj = trajs[which]
+        target = crane.fk(traj.q[-1]) + (0.0 if operator == "passive" else offsets[which])
+        # timed run: every step and advance measured
+        ctl, sim, op = _setup(crane, scene, checkers, traj, mode, operator, target)
+        step, adv = _Timed(ctl.step), _Timed(sim.advance)
+        ctl.step, sim.advance = step, adv
+        res = run_closed_loop(ctl, sim, op, LoopOptions(time_limit_s=60.0))
+        steps_us = np.array(step.ns) / 1e3
+        all_steps.append(steps_us)
+        # untimed runs for the loop speed
+        best = np.inf
+        for _ in range(args.repeat):
+            ctl, sim, op = _setup(crane, scene, checkers, traj, mode, operator, target)
+            r = run_closed_loop(ctl, sim, op, LoopOptions(time_limit_s=60.0))
+            best = min(best, r.wall_time_s)
+        simulated = r.log.t_end
+        print(
+            f"{name:<12} {simulated:6.2f} {r.steps:6d} {np.median(steps_us):11.1f} "
+            f"{np.percentile(steps_us, 99):11.1f} {steps_us.max():11.1f} {np.median(np.array(adv.ns) / 1e3):10.1f} "
+            f"{best / r.steps * 1e6:12.1f} {simulated / best:11.0f} {res.diagnostics['fcl_calls']:9d}"
+        )
+    every = np.concatenate(all_steps)
+    print("-" * len(header))
+    print(f"all scenarios: median step {np.median(every):.1f} us, p99 {np.percentile(every, 99):.1f} us "
+          f"(target: median <= 50 us); full cycles >= 200x real time is the loop target")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,339 @@
+"""The shared controller: kinematics and resolved rate against motionlib's numpy references, limits, modes, sources,
+and a passive operator in M6 reproducing the planned trajectory on the simulated crane."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from motionlib.controller import (
+    Authority,
+    ControllerParams,
+    CraneState,
+    Flag,
+    Mode,
+    OperatorInput,
+    SharedController,
+    TipKinematics,
+    resolve_rate_fast,
+)
+from motionlib.errors import InputError
+from motionlib.kinematics import Crane
+from motionlib.metrics import path_deviation
+from motionlib.operators import PassiveOperator
+from motionlib.planner import Planner, PlanOptions
+from motionlib.resolved_rate import joint_limit_weights, resolve_rate
+from motionlib.scene import Scene
+from motionlib.sim import LoopOptions, SimParams, SimulatedCrane, run_closed_loop
+from motionlib.sources import CartesianJoystick, JointJoystick, RateSource
+from motionlib.spline import TipSpline
+
+DT = 0.005
+Q_MID = (0.3, 0.5, -1.4, 0.4)
+
+
+@pytest.fixture(scope="module")
+def planned():
+    crane = Crane.load("lab")
+    scene = Scene.load("obstacles/log-loading.yaml")
+    result = Planner(crane, scene).plan(scene.start("target-center"), scene.point("pickup-between"))
+    assert result.ok, result.reason
+    return crane, scene, result.trajectory
+
+
+def _drive(ctl: SharedController, sim: SimulatedCrane, axes, seconds: float, abort: bool = False) -> list:
+    """Closed loop with a constant stick; returns the commands."""
+    out = []
+    for _ in range(int(round(seconds / DT))):
+        st = sim.state()
+        out.append(ctl.step(st, OperatorInput(st.t, axes, abort)))
+        sim.advance(ctl.status.qd_cmd, DT)
+    return out
+
+
+# ------------------------------------------------------------------ numerics
+def test_tip_kinematics_matches_the_crane(crane, sample_q):
+    kin = TipKinematics(crane)
+    for q in sample_q(crane, 50, seed=3):
+        p, jac = kin.tip_jacobian(*q.tolist())
+        np.testing.assert_allclose(p, crane.fk(q), atol=1e-12)
+        np.testing.assert_allclose(np.reshape(jac, (3, 4)), crane.jacobian(q), atol=1e-12)
+        np.testing.assert_allclose(kin.tip(*q.tolist()), crane.fk(q), atol=1e-12)
+
+
+def test_fast_resolved_rate_equals_resolve_rate(crane, sample_q):
+    """Closed-form 3 x 3 version vs the SVD implementation (000 eq. 2, 001 eq. 7), damped cases included."""
+    rng = np.random.default_rng(8)
+    jacobians = [crane.jacobian(q) for q in sample_q(crane, 30, seed=4)]
+    for sigma3 in (1e-1, 1e-2, 1e-3, 1e-5, 0.0):  # general 3 x 4 matrices near and at a singularity
+        u, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        v, _ = np.linalg.qr(rng.normal(size=(4, 4)))
+        jacobians.append(u @ np.diag([3.0, 1.0, sigma3]) @ v[:3])
+    damped = 0
+    for jac in jacobians:
+        w = rng.uniform(0.05, 2.0, 4)
+        pd = rng.normal(size=3)
+        z = rng.normal(size=4)
+        ref = resolve_rate(jac, pd, w, z)
+        qd, sigma_min, lam = resolve_rate_fast(tuple(jac.ravel()), tuple(pd), tuple(w), tuple(z), 0.05, 0.05)
+        scale = max(1.0, np.abs(ref.qd).max())
+        np.testing.assert_allclose(qd, ref.qd, atol=1e-8 * scale)
+        assert sigma_min == pytest.approx(ref.sigma_min, abs=1e-7)
+        assert lam == pytest.approx(ref.damping, abs=1e-7)
+        damped += lam > 0
+    assert damped >= 3
+
+
+def test_weights_follow_the_joint_limit_law(lab, sample_q):
+    ctl = SharedController(lab, "M6")
+    for q in sample_q(lab, 30, seed=6):
+        ref = joint_limit_weights(q, lab.q_min, lab.q_max, base=np.array(ctl._w_nom), margin=0.15, w_floor=1e-3)
+        np.testing.assert_allclose(ctl._weights(tuple(q.tolist()), None), ref, rtol=1e-12)
+
+
+def test_joint_operation_raises_the_operators_joints():
+    lab = Crane.load("lab")
+    ctl = SharedController(lab, "M3")
+    speed = np.minimum(-lab.qd_min, lab.qd_max)
+    qo = (0.5 * speed[0], 0.0, 0.0, 0.0)  # the operator slews
+    w0 = np.array(ctl._weights(Q_MID, None))
+    w = np.array(ctl._weights(Q_MID, qo))
+    np.testing.assert_allclose(w / w0, [10.0, 0.1, 0.1, 0.1])
+    # mapped to p_o = J qd_o and resolved with these weights, the slew does nearly all of it
+    jac = lab.jacobian(np.array(Q_MID))
+    qd = resolve_rate(jac, jac @ np.array(qo), w).qd
+    assert abs(qd[0] - qo[0]) < 0.02 * abs(qo[0]) and np.abs(qd[1:]).max() < 0.05 * abs(qo[0])
+
+
+# ------------------------------------------------------------------ limits
+def test_velocity_scaling_keeps_the_direction_and_acceleration_is_bounded(lab):
+    speed = np.minimum(-lab.qd_min, lab.qd_max)
+    joystick = JointJoystick((3 * speed).tolist())  # full deflection asks for 3x the joint speeds
+    ctl = SharedController(lab, "M1", joystick=joystick)
+    sim = SimulatedCrane(lab, Q_MID)
+    axes = (0.5, -0.8, 0.2, 0.4)  # slew, jib, telescope, boom
+    cmds = np.array(_drive(ctl, sim, axes, 1.0))
+    target = np.array(joystick.gains) * np.array([axes[0], axes[3], axes[1], axes[2]])
+    assert np.all(np.abs(np.diff(cmds, axis=0)) <= lab.qdd_max * DT * (1 + 1e-12))
+    assert np.all(np.abs(cmds[0]) <= lab.qdd_max * DT * (1 + 1e-12))
+    final = cmds[-1]
+    ratio = np.max(np.where(final > 0, final / lab.qd_max, final / lab.qd_min))
+    assert ratio == pytest.approx(1.0)  # one joint at its limit ...
+    np.testing.assert_allclose(final / np.linalg.norm(final), target / np.linalg.norm(target), atol=1e-12)  # same way
+    assert ctl.status.flags & Flag.VELOCITY_LIMITED
+
+
+def test_joints_brake_before_their_position_limits(lab):
+    q0 = (0.0, 0.5, -1.4, 0.6)
+    ctl = SharedController(lab, "M1")
+    sim = SimulatedCrane(lab, q0)
+    cmds = np.array(_drive(ctl, sim, (0.0, 0.0, 1.0, 0.0), 2.0))  # telescope out, held
+    assert sim.hard_stop_hits == 0
+    assert lab.q_max[3] - 0.02 * 0.8 <= sim.q[3] <= lab.q_max[3]
+    assert abs(sim.qd[3]) < 1e-3 and cmds[-1][3] == 0.0
+    assert np.all(np.abs(np.diff(cmds[:, 3])) <= lab.qdd_max[3] * DT * (1 + 1e-12))
+
+
+# ------------------------------------------------------------------ inputs
+def test_stale_input_stops_the_crane_and_fresh_input_resumes(lab):
+    ctl = SharedController(lab, "M4")
+    sim = SimulatedCrane(lab, Q_MID)
+    _drive(ctl, sim, (0.0, 0.6, 0.0, 0.2), 1.0)
+    moving = np.array(ctl.status.qd_cmd)
+    assert np.linalg.norm(moving) > 0.05
+    t_last = sim.t
+    cmds, flags = [], []
+    for _ in range(120):  # the device stops sending: the sample keeps its time stamp
+        st = sim.state()
+        cmds.append(ctl.step(st, OperatorInput(t_last, (0.0, 0.6, 0.0, 0.2))))
+        flags.append(ctl.status.flags)
+        sim.advance(ctl.status.qd_cmd, DT)
+    cmds = np.array(cmds)
+    stale = np.array([bool(f & Flag.STALE_INPUT) for f in flags])
+    first = int(np.argmax(stale))
+    assert first * DT == pytest.approx(0.1, abs=DT + 1e-9)  # older than 0.1 s
+    assert not stale[:first].any() and stale[first:].all()
+    stop_steps = int(np.ceil(np.max(np.abs(moving) / (lab.qdd_max * DT)))) + 1
+    assert np.all(cmds[first + stop_steps:] == 0.0)  # stopped within the acceleration limits ...
+    assert np.all(np.abs(np.diff(cmds, axis=0)) <= lab.qdd_max * DT * (1 + 1e-12))
+    assert [e.name for e in ctl.events] == ["stale"]
+    _drive(ctl, sim, (0.0, 0.6, 0.0, 0.2), 0.5)  # ... and fresh input resumes
+    assert [e.name for e in ctl.events] == ["stale", "fresh"] and np.linalg.norm(ctl.status.qd_cmd) > 0.05
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+def test_nonfinite_axis_counts_as_zero_and_is_flagged(lab, bad):
+    a, b = SharedController(lab, "M4"), SharedController(lab, "M4")
+    state = CraneState(0.0, Q_MID, (0.0, 0.0, 0.0, 0.0))
+    for k in range(30):
+        state = CraneState(k * DT, Q_MID, (0.0, 0.0, 0.0, 0.0))
+        ca = a.step(state, OperatorInput(state.t, (0.4, bad, 0.0, -0.3)))
+        cb = b.step(state, OperatorInput(state.t, (0.4, 0.0, 0.0, -0.3)))
+        np.testing.assert_array_equal(ca, cb)
+        assert a.status.flags & Flag.NONFINITE_INPUT and not b.status.flags & Flag.NONFINITE_INPUT
+    assert [e.name for e in a.events] == ["nonfinite_input"]
+    c = SharedController(lab, "M4")
+    c.step(state, OperatorInput(state.t, (2.0, 0.0, 0.0, 0.0)))
+    assert c.status.flags & Flag.OUT_OF_RANGE_INPUT
+    c.step(state, OperatorInput(state.t, ("x", None)))  # garbage: non-finite, flagged, no exception
+    assert c.status.flags & Flag.NONFINITE_INPUT
+
+
+def test_bad_state_ramps_the_command_down(lab):
+    ctl = SharedController(lab, "M1")
+    sim = SimulatedCrane(lab, Q_MID)
+    _drive(ctl, sim, (0.8, 0.0, 0.0, 0.0), 0.6)
+    prev = np.array(ctl.status.qd_cmd)
+    cmd = ctl.step(CraneState(sim.t, (math.nan, 0.5, -1.4, 0.4), sim.qd), OperatorInput(sim.t, (0.8, 0, 0, 0)))
+    assert np.all(np.isfinite(cmd)) and ctl.status.flags & Flag.BAD_STATE
+    assert np.all(np.abs(cmd) <= np.abs(prev)) and np.all(np.abs(cmd - prev) <= lab.qdd_max * DT * (1 + 1e-12))
+
+
+# ------------------------------------------------------------------ modes
+def test_traded_mode_ignores_the_operator_until_abort(planned):
+    crane, _, traj = planned
+    pushing, passive = SharedController(crane, "M5"), SharedController(crane, "M5")
+    for c in (pushing, passive):
+        c.start_motion(traj)
+    sim_a, sim_b = SimulatedCrane(crane, traj.q[0]), SimulatedCrane(crane, traj.q[0])
+    a = _drive(pushing, sim_a, (0.7, -0.5, 0.0, 0.3), 1.0)
+    b = _drive(passive, sim_b, (0.0, 0.0, 0.0, 0.0), 1.0)
+    np.testing.assert_array_equal(np.array(a), np.array(b))
+    assert pushing.status.authority == Authority.TRADED and pushing.status.c_a == 1.0
+    _drive(pushing, sim_a, (0.7, -0.5, 0.0, 0.3), DT, abort=True)
+    assert not pushing.automation_active and pushing.events[-1].name == "abort"
+    _drive(pushing, sim_a, (0.7, -0.5, 0.0, 0.3), 1.0)
+    assert pushing.status.authority == Authority.MANUAL and pushing.status.c_a == 0.0
+
+
+def test_manual_cartesian_moves_the_tip_as_the_stick_says(lab):
+    ctl = SharedController(lab, "M4")
+    sim = SimulatedCrane(lab, Q_MID)
+    _drive(ctl, sim, (0.0, 0.5, 0.0, 0.0), 1.5)  # left_y: radially out
+    v = lab.jacobian(np.array(sim.q)) @ np.array(sim.qd)
+    p = np.array(sim.tip)
+    radial = np.array([p[0], p[1], 0.0]) / np.hypot(p[0], p[1])
+    # within 2 % of the 0.4 m/s asked for: the actuators lag the joint rates, which change along the way
+    np.testing.assert_allclose(v, 0.5 * ctl.joystick.gains[1] * radial, atol=0.008)
+
+
+def test_shared_mode_mixes_with_c_a(planned):
+    crane, _, traj = planned
+    ctl = SharedController(crane, "M6")
+    ctl.start_motion(traj)
+    sim = SimulatedCrane(crane, traj.q[0])
+    _drive(ctl, sim, (0.0, 0.0, 0.0, 0.0), 1.0)
+    assert ctl.status.authority == Authority.SHARED and ctl.status.c_a == pytest.approx(1.0, abs=1e-3)
+    _drive(ctl, sim, (0.0, 0.0, 0.0, 0.5), 0.05)  # operator lifts at 0.4 m/s: c_a = 1 - S(0.5) outside weak zones
+    st = ctl.status
+    assert st.speed_o == pytest.approx(0.4)
+    prm = ctl.mixer.params
+    c_dist = 1 - (1 - prm.far_factor) * _smooth(st.deviation_m / prm.far_distance_m)
+    assert st.c_a == pytest.approx((1 - _smooth(0.4 / prm.v_operator_max_m_s)) * c_dist, rel=1e-9)
+    assert ctl.automation_active  # not in a weak zone: no handover
+
+
+def _smooth(x: float) -> float:
+    x = min(max(x, 0.0), 1.0)
+    return 3 * x * x - 2 * x**3
+
+
+def test_shared_mode_hands_over_in_the_end_zone(planned):
+    crane, _, traj = planned
+    ctl = SharedController(crane, "M6")
+    ctl.start_motion(traj)
+    sim = SimulatedCrane(crane, traj.q[0])
+    while ctl.tracker.dist_end_m > 0.8 or ctl.tracker.s_p < 1.0:
+        _drive(ctl, sim, (0.0, 0.0, 0.0, 0.0), DT)
+    _drive(ctl, sim, (0.0, 0.0, 0.0, -0.5), 1.0)  # strong action inside the 1 m end zone
+    names = [e.name for e in ctl.events]
+    assert "handover" in names and not ctl.automation_active
+    assert ctl.status.authority == Authority.MANUAL
+
+
+# ------------------------------------------------------------------ sources
+class ConstantRate(RateSource):
+    """A user-defined operator source: a constant base-frame tip velocity (m/s), gains per axis."""
+
+    role = "operator"
+    space = "cartesian"
+
+    def __init__(self, v, gains=(1.0, 1.0, 1.0), name="constant"):
+        super().__init__(name, gains)
+        self.v = v
+
+    def rate(self, ctx):
+        return tuple(g * x for g, x in zip(self.gains, self.v, strict=True))
+
+
+def test_new_sources_plug_into_the_summing_junction(lab):
+    ctl = SharedController(lab, "M4")
+    extra = ConstantRate((0.1, -0.05, 0.08), gains=(1.0, 1.0, 0.0))  # z disabled by a zero gain
+    ctl.add_source(extra)
+    sim = SimulatedCrane(lab, Q_MID)
+    _drive(ctl, sim, (0.0, 0.0, 0.0, 0.3), 1.5)  # the stick lifts at 0.24 m/s; the source adds x, y
+    v = lab.jacobian(np.array(sim.q)) @ np.array(sim.qd)
+    np.testing.assert_allclose(v, [0.1, -0.05, 0.3 * ctl.joystick.gains[2]], atol=2e-3)
+    extra.enabled = False
+    _drive(ctl, sim, (0.0, 0.0, 0.0, 0.0), 1.0)
+    assert np.linalg.norm(lab.jacobian(np.array(sim.q)) @ np.array(sim.qd)) < 1e-3
+    with pytest.raises(InputError):
+        ctl.add_source(ConstantRate((0, 0, 0)))  # the same name again
+    assert ctl.source("constant") is extra
+
+
+def test_position_controller_goes_to_a_point(lab):
+    ctl = SharedController(lab, "M6")
+    sim = SimulatedCrane(lab, Q_MID)
+    goal = np.array(sim.tip) + np.array([0.3, -0.2, 0.25])
+    ctl.go_to(goal, gains=(2.0, 2.0, 2.0))
+    _drive(ctl, sim, (0.0, 0.0, 0.0, 0.0), 4.0)
+    assert [e.name for e in ctl.events] == ["motion_start", "arrival"]
+    assert np.linalg.norm(np.array(sim.tip) - goal) < 0.012
+
+
+# ------------------------------------------------------------------ the plan, passively
+@pytest.fixture(scope="module")
+def planned_back(planned):
+    """Go back with a log: pick-up area A -> target area (000 section 3.3)."""
+    crane, scene, _ = planned
+    result = Planner(crane, scene, PlanOptions(loaded=True)).plan(scene.start("pickup-a"), scene.point("target-center"))
+    assert result.ok, result.reason
+    return crane, scene, result.trajectory
+
+
+@pytest.mark.parametrize("which", ["planned", "planned_back"])
+def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request):
+    crane, _, traj = request.getfixturevalue(which)
+    ctl = SharedController(crane, "M6")
+    ctl.start_motion(traj)
+    sim = SimulatedCrane(crane, traj.q[0], SimParams())
+    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=2 * traj.duration_s))
+    arr = res.log.arrays(crane)
+    arrival = [e.t for e in res.log.events if e.name == "arrival"]
+    assert res.settled and len(arrival) == 1
+    assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
+    spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
+    assert path_deviation(arr["tip_p"], spline).max() < 0.02
+    assert np.linalg.norm(arr["tip_p"][-1] - crane.fk(traj.q[-1])) < 0.01
+    # time-aligned, the tip stays within a few cm of the plan's tip at the same moment (lag: ~0.06 s)
+    plan_tip = crane.fk_batch(traj.q)
+    k = np.minimum(np.arange(len(arr["t"])), len(traj.t) - 1)
+    assert np.linalg.norm(arr["tip_p"] - plan_tip[k], axis=1).max() < 0.12
+    lagged = np.minimum(np.maximum(np.arange(len(arr["t"])) - 12, 0), len(traj.t) - 1)  # 60 ms later
+    assert np.linalg.norm(arr["tip_p"] - plan_tip[lagged], axis=1).max() < 0.05
+    assert res.diagnostics["hard_stop_hits"] == 0
+    assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
+
+
+def test_mode_parsing():
+    assert Mode.parse("m3") is Mode.M3 and Mode.M3.joint_operation and Mode.M3.authority == "shared"
+    assert Mode.M5.authority == "traded" and not Mode.M5.joint_operation
+    with pytest.raises(InputError):
+        Mode.parse("M7")
+    with pytest.raises(InputError):
+        ControllerParams(dt_s=0.0)
+    with pytest.raises(InputError):
+        SharedController(Crane.load("lab"), "M4", joystick=CartesianJoystick(frame="polar"))

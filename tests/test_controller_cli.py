@@ -1,0 +1,113 @@
+"""``motionlib execute``: selection from a (small) library, the run, the summary, the run log and bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from cli.main import cli
+from motionlib.kinematics import Crane
+from motionlib.library import EntryRecord, IndexRow, LibraryWriter
+from motionlib.planner import Planner
+from motionlib.runlog import read_runlog
+from motionlib.scene import Scene
+
+JSON_KEYS = (
+    "cycle_time_s", "final_error_m", "total_jerk", "peak_acceleration_m_s2", "max_deviation_m", "handover_time_s",
+    "peak_swing_rad", "log",
+)
+
+
+@pytest.fixture(scope="module")
+def library(tmp_path_factory) -> tuple[Path, np.ndarray]:
+    """Two "go out" entries of the lab experiment, written with the library writer."""
+    crane = Crane.load("lab")
+    scene = Scene.load("obstacles/log-loading.yaml")
+    planner = Planner(crane, scene)
+    path = tmp_path_factory.mktemp("lib") / "small.h5"
+    q0 = scene.start("target-center")
+    ends = []
+    with LibraryWriter(path, "small", crane, scene, spec={}, build={}) as writer:
+        for i, name in enumerate(("pickup-between", "pickup-a")):
+            goal = scene.point(name)
+            result = planner.plan(q0, goal)
+            assert result.ok, result.reason
+            record = EntryRecord(i, f"out|target-center|{name}", "out", "target-center", q0, name, goal, False, 0,
+                                 "ok", "", "", 0.0)
+            writer.add(record, IndexRow.from_trajectory(result.trajectory, crane, q0), result.trajectory)
+            ends.append(crane.fk(result.trajectory.q[-1]))
+    return path, np.array(ends)
+
+
+def _run(*args: str) -> tuple[int, str]:
+    res = CliRunner().invoke(cli, list(args))
+    return res.exit_code, res.output
+
+
+def test_passive_m6_json_summary_and_run_log(library, tmp_path: Path):
+    path, ends = library
+    target = ends[0] + np.array([0.05, 0.1, 0.0])  # within L1 of the first entry's end
+    log = tmp_path / "run.h5"
+    code, out = _run("execute", str(path), "--target", ",".join(map(str, target)), "--json", "--log", str(log))
+    assert code == 0, out
+    summary = json.loads(out)
+    for key in JSON_KEYS:
+        assert key in summary
+    assert summary["library_row"] == 0 and summary["settled"]
+    assert summary["handover_time_s"] is None and summary["arrival_time_s"] is not None
+    # a passive operator leaves the tip at the library end point
+    assert summary["final_error_m"] == pytest.approx(np.linalg.norm(target - ends[0]), abs=0.01)
+    assert summary["max_deviation_m"] < 0.02
+    assert summary["log"] == str(log)
+    run = read_runlog(log)
+    assert run["attrs"]["summary"]["final_error_m"] == summary["final_error_m"]
+    assert run["attrs"]["mode"] == "M6" and run["attrs"]["rate_hz"] == pytest.approx(200.0)
+    assert [e["name"] for e in run["events"]] == ["motion_start", "arrival"]
+    assert run["q"].shape[0] == run["t"].shape[0] and run["tip_p"].shape == (run["t"].shape[0], 3)
+
+
+def test_novice_in_m6_with_plots_and_text_output(library, tmp_path: Path):
+    path, ends = library
+    target = ends[1] + np.array([0.1, -0.1, 0.1])
+    code, out = _run("execute", str(path), "--target", ",".join(map(str, target)), "--operator", "novice",
+                     "--mode", "m6", "--seed", "3", "--plot", str(tmp_path / "plots"))
+    assert code == 0, out
+    assert "cycle time" in out and "total jerk" in out and "peak swing" in out
+    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == ["path.png", "smoothness.png", "timeseries.png"]
+
+
+def test_scripted_operator_in_traded_mode(library, tmp_path: Path):
+    path, ends = library
+    script = tmp_path / "abort.csv"
+    script.write_text("t,left_x,left_y,right_x,right_y,abort\n0,0,0,0,0,0\n2.0,0,0,0,0,1\n2.05,0,0,0,0,0\n")
+    code, out = _run("execute", str(path), "--target", ",".join(map(str, ends[0])), "--mode", "M5",
+                     "--operator", str(script), "--json", "--time-limit", "4")
+    assert code == 0, out
+    summary = json.loads(out)
+    assert summary["handover_time_s"] == pytest.approx(2.0, abs=0.006)  # the abort button
+    assert [e["name"] for e in summary["events"]] == ["motion_start", "abort"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--target", "9,9,9"], "no library end point within"),
+        (["--target", "1,2"], "--target: expected 3"),
+        (["--target", "0,0,1", "--mode", "M7"], "Invalid value for '--mode'"),
+        (["--target", "0,0,1", "--operator", "wizard"], "operator: expected passive"),
+    ],
+)
+def test_bad_input_is_one_line(library, args, message):
+    path, _ = library
+    code, out = _run("execute", str(path), *args)
+    assert code != 0 and message in out
+    assert "Traceback" not in out
+
+
+def test_missing_library(tmp_path: Path):
+    code, out = _run("execute", str(tmp_path / "none.h5"), "--target", "1,1,1")
+    assert code != 0 and "no such library file" in out

@@ -1,0 +1,146 @@
+"""Path tracker (000 eq. 3) against the spline's own nearest-point search, the plan's timing and kinematics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from motionlib.kinematics import Crane
+from motionlib.planner import Planner
+from motionlib.scene import Scene
+from motionlib.spline import TipSpline
+from motionlib.tracker import PathTracker, TrackerParams
+
+SCENE = "obstacles/log-loading.yaml"
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """Go out on the lab crane: target area -> the fix point between the pick-up areas (000 section 3.3)."""
+    crane = Crane.load("lab")
+    scene = Scene.load(SCENE)
+    result = Planner(crane, scene).plan(scene.start("target-center"), scene.point("pickup-between"))
+    assert result.ok, result.reason
+    return crane, result.trajectory
+
+
+def _spline(traj) -> TipSpline:
+    return TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
+
+
+def test_local_nearest_matches_the_spline_search(planned):
+    """Walking along the path with offsets: s_p and the distance agree with TipSpline.nearest (Brent)."""
+    crane, traj = planned
+    spline = _spline(traj)
+    tracker = PathTracker(traj, crane)
+    rng = np.random.default_rng(5)
+    for s in np.linspace(0.0, spline.length, 120):
+        offset = rng.normal(size=3)
+        offset -= (offset @ spline.derivative(s)) * spline.derivative(s)  # across the path
+        p = spline(s) + 0.05 * offset / np.linalg.norm(offset)
+        s_p, d = tracker.nearest(*p)
+        s_ref, q_ref = spline.nearest(p, s_guess=s, window=0.3)
+        assert abs(s_p - s_ref) < 2e-3
+        assert abs(d - np.linalg.norm(p - q_ref)) < 1e-4
+    assert tracker.nearest(*spline(spline.length))[0] == pytest.approx(spline.length, abs=1e-9)
+
+
+def test_velocity_is_eq3_toward_the_lookahead_point(planned):
+    """p_a = v (q_Delta - p)/|q_Delta - p| with Delta s = clip(s_min + k d, s_min, s_max) (000 eq. 3)."""
+    crane, traj = planned
+    spline = _spline(traj)
+    prm = TrackerParams()
+    tracker = PathTracker(traj, crane, prm)
+    q = tuple(traj.q[0].tolist())
+    for s, off in ((0.5, 0.0), (1.5, 0.03), (2.5, 0.08), (3.5, 0.3)):
+        n = np.cross(spline.derivative(s), [0.0, 0.0, 1.0])
+        p = spline(s) + off * n / np.linalg.norm(n)
+        tracker.reset()
+        tracker.update(tuple(p), q, tip_speed_m_s=0.4)
+        d = tracker.deviation_m
+        assert d == pytest.approx(off, abs=2e-4)
+        ds = min(max(prm.s_min_m + prm.lookahead_gain * d, prm.s_min_m), prm.s_max_m)
+        look = spline(tracker.s_p + ds)
+        direction = (look - p) / np.linalg.norm(look - p)
+        pd = np.array(tracker.pd_a)
+        assert np.linalg.norm(pd / np.linalg.norm(pd) - direction) < 1e-3
+        v_ref = max(float(tracker.plan_speed(tracker.s_p + prm.lag_preview_s * 0.4)), prm.v_floor_m_s)
+        assert np.linalg.norm(pd) == pytest.approx(v_ref, rel=1e-9)
+
+
+def test_speed_table_is_the_plans_tip_speed(planned):
+    """v_plan(s) at the trajectory samples equals |dp/dt| by finite differences of fk(q(t))."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane)
+    tip = crane.fk_batch(traj.q)
+    speed_fd = np.linalg.norm(np.gradient(tip, traj.t, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tip, axis=0), axis=1))])
+    s *= tracker.length / s[-1]
+    inner = slice(5, -5)
+    np.testing.assert_allclose(tracker.plan_speed(s[inner]), speed_fd[inner], atol=0.01 * speed_fd.max())
+
+
+def _integrate(tracker: PathTracker, crane: Crane, p0: np.ndarray, q0: np.ndarray, t_max: float, dt: float = 0.005):
+    """Ideal actuators: the tip moves exactly at p_a (explicit midpoint), q follows through the plan's q(s)."""
+    p = p0.copy()
+    ts, ps, devs = [], [], []
+    q = tuple(q0.tolist())
+    t = 0.0
+    speed = 0.0
+    while t < t_max:
+        tracker.update(tuple(p), q, speed)
+        ts.append(t)
+        ps.append(p.copy())
+        devs.append(tracker.deviation_m)
+        if tracker.arrived(speed):
+            break
+        v1 = np.array(tracker.pd_a)
+        saved = tracker._i
+        tracker.update(tuple(p + 0.5 * dt * v1), q, speed)
+        tracker._i = saved
+        v2 = np.array(tracker.pd_a)
+        p = p + dt * v2
+        speed = float(np.linalg.norm(v2))
+        t += dt
+    return np.array(ts), np.array(ps), np.array(devs)
+
+
+def test_ideal_tracking_reproduces_the_plan_timing(planned):
+    """With actuators that follow instantly (no lag preview), the tip takes the plan's time along its path."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane, TrackerParams(lag_preview_s=0.0))
+    spline = _spline(traj)
+    t, p, dev = _integrate(tracker, crane, spline(0.0), traj.q[0], 2 * traj.duration_s)
+    assert t[-1] == pytest.approx(traj.duration_s, rel=0.02)
+    assert dev.max() < 0.01
+    assert np.linalg.norm(p[-1] - spline(spline.length)) <= TrackerParams().arrive_tol_m
+
+
+def test_returns_to_the_path_and_converges_on_the_end(planned):
+    crane, traj = planned
+    spline = _spline(traj)
+    tracker = PathTracker(traj, crane)
+    s0 = 1.0
+    n = np.cross(spline.derivative(s0), [0.0, 0.0, 1.0])
+    p0 = spline(s0) + 0.3 * n / np.linalg.norm(n)
+    tracker.update(tuple(p0), tuple(traj.q[0].tolist()))
+    assert tracker.lookahead_m == pytest.approx(TrackerParams().s_max_m)  # far off: the longest look-ahead
+    t, p, dev = _integrate(tracker, crane, p0, traj.q[0], 3 * traj.duration_s)
+    assert dev[0] == pytest.approx(0.3, abs=1e-3)
+    back = np.flatnonzero(dev < 0.01)
+    assert back.size and t[back[0]] < 2.0  # back on the path within two seconds
+    assert np.linalg.norm(p[-1] - spline(spline.length)) <= TrackerParams().arrive_tol_m
+
+
+def test_null_space_reference_is_the_planned_joint_motion(planned):
+    """On the plan at sample k, z = v dq/ds + k_q (q_plan - q) with q = q_plan is the planned joint velocity."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane, TrackerParams(lag_preview_s=0.0, v_floor_m_s=0.0))
+    tip = crane.fk_batch(traj.q)
+    for k in (150, 400, 700):
+        tracker.reset()
+        tracker.update(tuple(tip[k]), tuple(traj.q[k].tolist()))
+        np.testing.assert_allclose(tracker.z, traj.qd[k], atol=0.02 * np.abs(traj.qd).max())
+        assert math.isclose(tracker.speed_m_s, np.linalg.norm(crane.jacobian(traj.q[k]) @ traj.qd[k]), rel_tol=0.02)
