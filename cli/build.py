@@ -13,17 +13,28 @@ import click
 )
 @click.option("--scheduler", help="Dask distributed scheduler address (tcp://HOST:PORT): plan on its workers.")
 @click.option("--resume", is_flag=True, help="Finish an interrupted build from its checkpoints (OUTPUT.parts/).")
-def build(spec_file, output, workers, scheduler, resume) -> None:
+@click.option(
+    "--reuse",
+    is_flag=True,
+    help="Keep OUTPUT if it is already built from this spec (same crane, scene, options, entries, motionlib version).",
+)
+def build(spec_file, output, workers, scheduler, resume, reuse) -> None:
     """Build a motion library from SPEC_FILE (libraries/*.yaml, docs/library-spec.md).
 
     Finished entries are checkpointed in OUTPUT.parts/ as they complete; after an
     interruption rerun with --resume. Failed entries are recorded in the library
     with their stage and reason.
     """
-    from motionlib.build import build_library
+    from motionlib.build import build_library, library_is_current
     from motionlib.library_spec import LibrarySpec
 
     spec = LibrarySpec.load(spec_file)
+    if reuse:
+        current, why = library_is_current(spec, output)
+        if current:
+            click.echo(f"{output} is up to date with {spec_file}: reused")
+            return
+        click.echo(f"building: {why}", err=True)
     summary = build_library(spec, output, workers=workers, scheduler=scheduler, resume=resume)
     click.echo(
         f"built {summary.output}: {summary.n_entries} entries, {summary.n_ok} ok, {summary.n_failed} failed "

@@ -498,6 +498,34 @@ class BuildSummary:
     failures: list[tuple[str, str, int]]
 
 
+def library_is_current(spec: LibrarySpec, output: str | Path) -> tuple[bool, str]:
+    """Whether ``output`` is a complete library built from ``spec`` by this motionlib version.
+
+    The spec digest covers the crane and scene models, the planner options and
+    every entry, so a change to any of them makes the library stale.
+
+    Returns
+    -------
+    current : bool
+    reason : str
+        Why it is not current (empty when it is).
+    """
+    from .library import Library
+
+    path = Path(output)
+    if not path.exists():
+        return False, f"{path} does not exist"
+    try:
+        build = Library.open(path).metadata("build")
+    except LibraryFileError as exc:
+        return False, str(exc)
+    if build.get("spec_digest") != spec.digest:
+        return False, f"{path} was built from a different spec, crane or scene"
+    if build.get("motionlib_version") != _version("motionlib"):
+        return False, f"{path} was built by motionlib {build.get('motionlib_version')}"
+    return True, ""
+
+
 def build_library(
     spec: LibrarySpec,
     output: str | Path,
@@ -566,6 +594,7 @@ def build_library(
         finally:
             progress.close()
         build_info = {
+            "spec_digest": spec.digest,
             "motionlib_version": _version("motionlib"),
             "finished_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "wall_time_s": time.monotonic() - t_start,

@@ -27,7 +27,7 @@ from click.testing import CliRunner
 
 from cli.main import cli
 from motionlib import Library
-from motionlib.build import LogProgress, RichProgress, build_library, parts_dir_for
+from motionlib.build import LogProgress, RichProgress, build_library, library_is_current, parts_dir_for
 from motionlib.errors import InputError, LibraryFileError
 from motionlib.library_spec import LibrarySpec
 from motionlib.planner import Planner, PlanOptions
@@ -183,6 +183,24 @@ def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
     assert f"{N_ENTRIES - finished} planned in this run" in resumed.stdout
     assert not parts.exists()
     assert content_digest(out) == content_digest(reference[0])
+
+
+def test_reuse_only_when_built_from_the_same_spec(reference, tiny_spec, tmp_path):
+    """`build --reuse` keeps a library built from the same spec and rebuilds after any change to it."""
+    out, _, _ = reference
+    spec = LibrarySpec.load(tiny_spec)
+    assert library_is_current(spec, out) == (True, "")
+    changed = yaml.safe_load(tiny_spec.read_text())
+    changed["seed"] = changed.get("seed", 0) + 1
+    other = tmp_path / "changed.yaml"
+    other.write_text(yaml.safe_dump(changed, sort_keys=False))
+    current, why = library_is_current(LibrarySpec.load(other), out)
+    assert not current and "different spec" in why
+    assert library_is_current(spec, tmp_path / "missing.h5")[0] is False
+    before = content_digest(out)
+    r = CliRunner().invoke(cli, ["build", str(tiny_spec), "-o", str(out), "--reuse"])
+    assert r.exit_code == 0 and "up to date" in r.output
+    assert content_digest(out) == before
 
 
 def test_resume_refuses_checkpoints_of_another_spec(tiny_spec, tmp_path):
