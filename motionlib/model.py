@@ -69,8 +69,23 @@ class CraneModel:
     log_diameter: float
 
     def to_dict(self) -> dict:
-        """Plain-data form (JSON/YAML serialisable)."""
+        """Plain-data form (JSON/YAML serialisable), as embedded in plan and library files."""
         return asdict(self)
+
+    @classmethod
+    def from_dict(cls, record: dict) -> CraneModel:
+        """Inverse of :meth:`to_dict` (a record embedded in a file; no range checks).
+
+        Raises
+        ------
+        KeyError, TypeError
+            The record lacks a field or has an unknown one.
+        """
+        data = dict(record)
+        data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
+        if data.get("displacement") is not None:
+            data["displacement"] = tuple(data["displacement"])
+        return cls(**data)
 
     @property
     def digest(self) -> str:

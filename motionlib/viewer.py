@@ -40,7 +40,7 @@ from .checks import check_scalar
 from .errors import InputError, LibraryFileError
 from .kinematics import Crane
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
-from .model import CraneModel, JointSpec
+from .model import CraneModel
 from .scene import Scene
 from .trajectory import Trajectory, atomic_output, read_trajectory
 
@@ -372,11 +372,7 @@ def _root_json(f: h5py.File, key: str) -> Any:
 
 def crane_from_record(record: dict[str, Any]) -> Crane:
     """The crane of an embedded ``crane_model`` record (the :meth:`CraneModel.to_dict` form)."""
-    data = dict(record)
-    data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
-    if data.get("displacement") is not None:
-        data["displacement"] = tuple(data["displacement"])
-    return Crane(CraneModel(**data))
+    return Crane(CraneModel.from_dict(record))
 
 
 def embedded_crane_scene(f: h5py.File) -> tuple[Crane, Scene]:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import json
 from pathlib import Path
 
 import numpy as np
@@ -146,3 +147,12 @@ def test_missing_file_names_the_file(tmp_path):
     with pytest.raises(ModelFileError, match="cannot read file") as info:
         Crane.load(path)
     assert str(path) in str(info.value)
+
+
+def test_model_record_round_trip(crane) -> None:
+    """CraneModel.from_dict inverts to_dict (the form embedded in plan and library files), digest included."""
+    from motionlib.model import CraneModel
+
+    record = json.loads(json.dumps(crane.model.to_dict()))
+    again = CraneModel.from_dict(record)
+    assert again == crane.model and again.digest == crane.model.digest
