@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "select": "select:select",
     "inspect": "inspect:inspect",
     "execute": "execute:execute",
+    "experiment": "experiment:experiment",
 }
 
 

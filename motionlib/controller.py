@@ -527,6 +527,7 @@ class SharedController:
         self._prev: Vec4 = _ZERO4
         self._started = False
         self._auto_active = False
+        self._motion_end: Vec3 | None = None
         self._stale = False
         self._nonfinite = False
 
@@ -568,6 +569,7 @@ class SharedController:
         """
         tracker = PathTracker(trajectory, self.crane, self.tracker_params)
         self.tracker = tracker
+        self._motion_end = tracker.end
         self._begin(PathTrackerSource(tracker), t, f"{trajectory.duration_s:.3f} s planned")
         return tracker
 
@@ -583,6 +585,7 @@ class SharedController:
         """
         source = PositionSource(goal_p, gains, v_max_m_s, name="position")
         self.tracker = None
+        self._motion_end = source.goal
         self._begin(source, t, f"go to {list(source.goal)}")
         return source
 
@@ -607,6 +610,15 @@ class SharedController:
     def automation_active(self) -> bool:
         """True while an automated motion is in control (not arrived, aborted or handed over)."""
         return self._auto_active
+
+    @property
+    def motion_end_p(self) -> Vec3 | None:
+        """End point (3,) (m, base frame) of the automated motion in control; None when none is.
+
+        The path's end ``q(l)`` for :meth:`start_motion`, the goal for :meth:`go_to`. Operator
+        models use it to take over when the motion is nearly completed (000 section 3.3).
+        """
+        return self._motion_end if self._auto_active else None
 
     def _end_motion(self, t: float, name: str, detail: str = "") -> None:
         self._auto_active = False

@@ -44,8 +44,9 @@ it aims at each in turn until the tip is within ``via_radius_m`` of it or the ta
 nearer than it.
 
 While an automated motion runs (traded and shared modes) the operator keeps the hands off
-until the tip is within ``takeover_distance_m`` of the target (or the motion has ended);
-then it acts (shared modes) or presses abort and acts (traded modes).
+until the tip is within ``takeover_distance_m`` of the target or of the motion's end point
+(``Observation.motion_end``: the automated task is nearly completed, 000 section 3.3), or the
+motion has ended; then it acts (shared modes) or presses abort and acts (traded modes).
 
 Presets (``OPERATOR_PRESETS``) -- set once from general reasoning, not fitted to 000's results:
 
@@ -107,9 +108,12 @@ class Observation:
         Tip position (m) and velocity (m/s), base frame.
     automation_active : bool
         An automated motion is in control.
+    motion_end : tuple of 3 float or None
+        End point (m) of the automated motion in control (the operator sees where it is
+        going); None when none is.
     """
 
-    __slots__ = ("t", "q", "qd", "p", "v", "automation_active")
+    __slots__ = ("t", "q", "qd", "p", "v", "automation_active", "motion_end")
 
     def __init__(self) -> None:
         self.t = 0.0
@@ -118,6 +122,7 @@ class Observation:
         self.p: Vec3 = (0.0, 0.0, 0.0)
         self.v: Vec3 = (0.0, 0.0, 0.0)
         self.automation_active = False
+        self.motion_end: Vec3 | None = None
 
 
 class PassiveOperator:
@@ -423,7 +428,10 @@ class SimulatedOperator:
         abort = False
         if self.phase == "wait":
             auto = obs.automation_active
-            near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m
+            end = obs.motion_end
+            near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m or (
+                auto and end is not None and math.dist(end, p_seen) <= prm.takeover_distance_m
+            )
             # in manual modes act once the reaction time has passed
             if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (auto and near):
                 self.phase = "act"

@@ -433,6 +433,7 @@ def run_closed_loop(
         vx, vy, vz = sim.tip_velocity
         obs.t, obs.q, obs.qd, obs.p, obs.v = state.t, state.q, state.qd, sim.tip, (vx, vy, vz)
         obs.automation_active = controller.automation_active
+        obs.motion_end = controller.motion_end_p
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)

@@ -1,0 +1,392 @@
+"""One test series in simulation: set up, run, segment and measure (000 sections 3.3-4).
+
+:class:`ExperimentContext` holds what every series needs and is built once per worker
+process: the library (:class:`~motionlib.library.Library`), the crane and scene embedded in
+it, the :class:`~motionlib.experiment.scenario.Scenario`, and a collision checker for the
+obstacle guard ``c_o``. The guard's scene leaves out the logs: they are what the operator
+works on, not obstacles to keep away from (the wall and the stakes are).
+
+:func:`run_series` runs one operator in one mode for one series: the crane starts at rest
+over the target area (the scenario's start configuration), a :class:`SharedController` in
+the mode (default parameters, obstacle guard on), the simulated crane
+(:class:`~motionlib.sim.SimulatedCrane`, default parameters) and a
+:class:`~motionlib.experiment.task.LoadingTask` run in
+:func:`~motionlib.sim.run_closed_loop` until every log is released and the tip has settled
+(or the time limit). The 200 Hz log is then reduced in the worker to
+
+* one :class:`CycleRecord` per completed work cycle: cycle time, the four subtask times
+  (:mod:`~motionlib.experiment.segment`), total jerk and peaks over the cycle
+  (:mod:`~motionlib.experiment.measures`), attempts, how each automated motion ended;
+* one :class:`Transition` per automated motion that ended (``abort``, ``handover`` or
+  ``arrival``): the peaks of the filtered acceleration and jerk from ``TRANSITION_BEFORE_S``
+  before to ``TRANSITION_AFTER_S`` after the switch, and that excerpt (000 Fig. 8);
+* the tip path at ``PATH_RATE_HZ`` (000 Fig. 7).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..collision import CollisionChecker
+from ..controller import Mode, SharedController
+from ..errors import InputError, LibraryFileError, MotionlibError
+from ..kinematics import Crane
+from ..library import Library
+from ..mixer import ObstacleGuard
+from ..model import CraneModel
+from ..runlog import RunLog
+from ..scene import Scene
+from ..selection import SelectionStatus
+from ..sim import LoopOptions, SimulatedCrane, run_closed_loop
+from ..trajectory import Trajectory
+from .measures import Signals
+from .panel import panel_operator
+from .scenario import Scenario, ScenarioOptions
+from .segment import SUBTASKS, segment_cycles
+from .task import LoadingTask, TaskEvent
+
+TRANSITION_BEFORE_S = 1.0
+"""Transition window (000 Fig. 8): seconds before the automatic-to-manual switch ..."""
+TRANSITION_AFTER_S = 2.0
+"""... and after it."""
+TRANSITION_STEP = 2
+"""Every ``TRANSITION_STEP``-th sample is kept in a transition's excerpt (100 Hz; peaks use all)."""
+PATH_RATE_HZ = 20.0
+"""Rate (Hz) of the tip path kept per series."""
+SWITCH_EVENTS = ("abort", "handover", "arrival")
+
+
+# ====================================================================== records
+@dataclass
+class CycleRecord:
+    """One work cycle (one row of ``cycles.csv``).
+
+    Attributes
+    ----------
+    operator, group, mode : str
+    series, cycle : int
+    log : str
+    t_start, t_end : float
+        Cycle start and end (s, series time).
+    cycle_time_s : float
+    go_out_s, grab_s, go_back_s, release_s : float
+        Subtask times (s), adding up to ``cycle_time_s``.
+    total_jerk : float
+        ``1/2 int |p'''|^2 dt`` over the cycle (m^2/s^5, 000 eq. 6).
+    total_sq_acceleration : float
+        ``1/2 int |p''|^2 dt`` over the cycle (m^2/s^3).
+    peak_acceleration_m_s2, peak_jerk_m_s3 : float
+    grab_attempts, release_attempts : int
+    gave_up : bool
+        Attempts ran out in this cycle (the task moved on).
+    out_end, back_end : str
+        How the automated go out / go back ended: ``abort``, ``handover``, ``arrival``,
+        ``running`` (still running at the end of the part) or ``manual`` (no automation).
+    """
+
+    operator: str
+    group: str
+    mode: str
+    series: int
+    cycle: int
+    log: str
+    t_start: float
+    t_end: float
+    cycle_time_s: float
+    go_out_s: float
+    grab_s: float
+    go_back_s: float
+    release_s: float
+    total_jerk: float
+    total_sq_acceleration: float
+    peak_acceleration_m_s2: float
+    peak_jerk_m_s3: float
+    grab_attempts: int
+    release_attempts: int
+    gave_up: bool
+    out_end: str
+    back_end: str
+
+
+@dataclass
+class Transition:
+    """An automated motion's end: the switch to manual control and its surroundings (000 Fig. 8).
+
+    Attributes
+    ----------
+    operator, group, mode : str
+    series, cycle : int
+    motion : str
+        ``go_out`` or ``go_back``.
+    kind : str
+        ``abort`` (traded), ``handover`` (shared, weak zone) or ``arrival``.
+    t_switch : float
+        Time (s) of the switch.
+    peak_acceleration_m_s2, peak_jerk_m_s3 : float
+        Peaks of the filtered tip acceleration and jerk in the window.
+    peak_speed_before_m_s : float
+        Largest filtered tip speed in the window before the switch (how fast the automation was going).
+    blend_s : float
+        How long the automation's share took to go from ``c_a >= 0.9`` to ``c_a <= 0.1`` before the
+        switch (shared control, 000 eq. 4); 0 for an abort (traded: immediate); NaN for an arrival.
+    excerpt : dict
+        ``t`` (n,) s relative to the switch; ``p``, ``v``, ``a``, ``j`` (n, 3).
+    """
+
+    operator: str
+    group: str
+    mode: str
+    series: int
+    cycle: int
+    motion: str
+    kind: str
+    t_switch: float
+    peak_acceleration_m_s2: float
+    peak_jerk_m_s3: float
+    peak_speed_before_m_s: float
+    blend_s: float
+    excerpt: dict[str, np.ndarray] = field(repr=False)
+
+
+@dataclass
+class SeriesResult:
+    """Everything one series gives the analysis (small enough to send between processes).
+
+    Attributes
+    ----------
+    operator, group, mode : str
+    series : int
+    cycles_planned : int
+    cycles : list of CycleRecord
+    transitions : list of Transition
+    path_t : ndarray, shape (m,)
+        Times (s) of the kept tip path ...
+    path_p : ndarray, shape (m, 3)
+        ... and its positions (m).
+    finished : bool
+        Every log was released before the time limit.
+    simulated_s, wall_s : float
+        Simulated time and wall-clock time of the series (s).
+    events : list of TaskEvent
+    error : str or None
+        Why the series could not run (then the lists are empty).
+    """
+
+    operator: str
+    group: str
+    mode: str
+    series: int
+    cycles_planned: int
+    cycles: list[CycleRecord] = field(default_factory=list)
+    transitions: list[Transition] = field(default_factory=list)
+    path_t: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    path_p: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    finished: bool = False
+    simulated_s: float = 0.0
+    wall_s: float = 0.0
+    events: list[TaskEvent] = field(default_factory=list, repr=False)
+    error: str | None = None
+
+
+# ====================================================================== set-up
+def library_crane(lib: Library) -> Crane:
+    """The crane embedded in a library, checked against the library's crane digest."""
+    try:
+        model = CraneModel.from_dict(lib.metadata("crane_model"))
+    except (KeyError, TypeError) as exc:
+        raise LibraryFileError(f"{lib.path}: the embedded crane model is not readable ({exc})") from exc
+    if model.digest != lib.crane_digest:
+        raise LibraryFileError(f"{lib.path}: the embedded crane model does not match its digest")
+    return Crane(model)
+
+
+class LibraryMotions:
+    """Automated motions from a library: the best trajectory for a target from the current configuration.
+
+    Selection by time (003 eqs. 5.3-5.6) with the default ``L1`` and ``L2``. When no library start is
+    within ``L2`` of the current configuration (the crane is where the operator left it, not at a
+    library start), the nearest start among the trajectories that reach the target is accepted
+    (``L2`` = its weighted distance): the path tracker joins the path from where the crane is
+    (000 eq. 3), and a start at another place (another area) is never nearer than the one here.
+    Trajectories are read once and cached.
+    """
+
+    def __init__(self, lib: Library):
+        self.lib = lib
+        self._cache: dict[int, Trajectory] = {}
+
+    def select(self, target_p: Any, current_q: Any) -> Trajectory:
+        """The trajectory for ``target_p`` (3,) (m) from ``current_q`` (4,).
+
+        Raises
+        ------
+        InputError
+            No library end point within ``L1`` of the target.
+        """
+        res = self.lib.select(target_p, current_q)
+        if res.status is SelectionStatus.NO_START_MATCH:
+            res = self.lib.select(target_p, current_q, L2=res.nearest_start_distance * (1.0 + 1e-9) + 1e-12)
+        if not res.ok:
+            raise InputError(f"{self.lib.path}: no trajectory for target {list(np.round(target_p, 3))}: {res.message}")
+        row = int(res.indices[0])
+        if row not in self._cache:
+            self._cache[row] = self.lib.trajectory(row)
+        return self._cache[row]
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How series are run.
+
+    Attributes
+    ----------
+    time_limit_s : float
+        Longest simulated time of one series (s).
+    guard : bool
+        Obstacle guard ``c_o`` on (as ``motionlib execute`` by default).
+    scenario : ScenarioOptions
+    """
+
+    time_limit_s: float = 900.0
+    guard: bool = True
+    scenario: ScenarioOptions = field(default_factory=ScenarioOptions)
+
+
+class ExperimentContext:
+    """Library, crane, scene, scenario and guard checker for running series (see the module docstring).
+
+    Parameters
+    ----------
+    library_path : str or Path
+    options : RunOptions, optional
+    """
+
+    def __init__(self, library_path: str | Path, options: RunOptions | None = None):
+        self.options = options or RunOptions()
+        self.library = Library.open(library_path)
+        self.crane = library_crane(self.library)
+        self.scene = Scene.from_dict(self.library.metadata("scene_model"), f"{library_path}:scene_model",
+                                     crane=self.crane)
+        self.scenario = Scenario.from_scene(self.scene, self.options.scenario)
+        self.motions = LibraryMotions(self.library)
+        self.checker = None
+        if self.options.guard:
+            data = self.scene.to_dict()
+            data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
+            guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
+            self.checker = CollisionChecker(self.crane, guard_scene)
+
+
+# ====================================================================== one series
+def run_series(
+    ctx: ExperimentContext, operator: str, mode: str | Mode, series: int, cycles: int | None = None
+) -> SeriesResult:
+    """Run and measure one series (see the module docstring).
+
+    Parameters
+    ----------
+    ctx : ExperimentContext
+    operator : str
+        ``O1`` .. ``O5``.
+    mode : str or Mode
+        ``M1`` .. ``M6``.
+    series : int
+        Series number (seeds).
+    cycles : int, optional
+        Work cycles (default: one per log of the scenario).
+
+    Returns
+    -------
+    SeriesResult
+        With ``error`` set (and nothing measured) when a library selection fails.
+    """
+    member = panel_operator(operator)
+    mode = Mode.parse(mode)
+    n_cycles = len(ctx.scenario.logs) if cycles is None else int(cycles)
+    result = SeriesResult(member.name, member.group, mode.value, int(series), n_cycles)
+    t_wall = time.perf_counter()
+    guard = ObstacleGuard(ctx.checker) if ctx.checker is not None else None
+    controller = SharedController(ctx.crane, mode, obstacle_guard=guard)
+    sim = SimulatedCrane(ctx.crane, ctx.scenario.start_q)
+    task = LoadingTask(ctx.scenario, member, controller, sim, ctx.motions, series=series, cycles=n_cycles)
+    log = RunLog()
+    try:
+        loop = run_closed_loop(controller, sim, task, LoopOptions(time_limit_s=ctx.options.time_limit_s), log)
+    except MotionlibError as exc:
+        result.error = str(exc)
+        result.wall_s = time.perf_counter() - t_wall
+        return result
+    arrays = log.arrays(ctx.crane)
+    t, tip = arrays["t"], arrays["tip_p"]
+    result.finished = task.finished and loop.settled
+    result.simulated_s = float(t[-1]) if t.size else 0.0
+    result.events = list(task.events)
+    if t.size >= 4:
+        signals = Signals.from_tip(t, tip)
+        _measure(result, ctx.scenario, task, signals, log.events, arrays["c_a"])
+        keep = max(1, int(round(1.0 / (PATH_RATE_HZ * controller.params.dt_s))))
+        result.path_t, result.path_p = t[::keep].copy(), tip[::keep].copy()
+    result.wall_s = time.perf_counter() - t_wall
+    return result
+
+
+def _blend_time(t: np.ndarray, c_a: np.ndarray, t_start: float, t_switch: float) -> float:
+    """Time (s) for ``c_a`` to fall from >= 0.9 (last such sample) to <= 0.1, within ``[t_start, t_switch]``."""
+    i0, i1 = np.searchsorted(t, [t_start, t_switch + 1e-9])
+    c = c_a[i0:i1]
+    high = np.flatnonzero(c >= 0.9)
+    if high.size == 0:
+        return math.nan
+    low = np.flatnonzero(c[high[-1]:] <= 0.1)
+    return float(t[i0 + high[-1] + low[0]] - t[i0 + high[-1]]) if low.size else math.nan
+
+
+def _measure(
+    result: SeriesResult, scenario: Scenario, task: LoadingTask, sig: Signals, ctl_events: list, c_a: np.ndarray
+) -> None:
+    """Cycle records and transitions of a series from its filtered signals, events and mixing coefficient."""
+    events = task.events
+    segments = segment_cycles(sig.t, sig.p, events, [log.area_center for log in scenario.logs],
+                              scenario.target_center, scenario.options.area_radius_m)
+    commands = [e for e in events if e.name in ("go_out", "go_back")]
+    switches = [e for e in ctl_events if e.name in SWITCH_EVENTS]
+    ends: dict[tuple[int, str], str] = {}
+    for k, cmd in enumerate(commands):  # how each automated motion ended: the first switch event after its start
+        t_next = commands[k + 1].t if k + 1 < len(commands) else math.inf
+        sw = next((e for e in switches if cmd.t <= e.t < t_next), None)
+        ends[(cmd.cycle, cmd.name)] = sw.name if sw is not None else "running"
+        if sw is None:
+            continue
+        ex = sig.excerpt(sw.t, TRANSITION_BEFORE_S, TRANSITION_AFTER_S)
+        a2 = np.sum(ex["a"] ** 2, axis=1)
+        j2 = np.sum(ex["j"] ** 2, axis=1)
+        before = np.linalg.norm(ex["v"][ex["t"] <= 0.0], axis=1)
+        blend = {"abort": 0.0, "arrival": math.nan}.get(sw.name)
+        if blend is None:
+            blend = _blend_time(sig.t, c_a, cmd.t, sw.t)
+        step = slice(None, None, TRANSITION_STEP)
+        result.transitions.append(Transition(
+            result.operator, result.group, result.mode, result.series, cmd.cycle, cmd.name, sw.name, float(sw.t),
+            float(np.sqrt(a2.max())) if a2.size else 0.0, float(np.sqrt(j2.max())) if j2.size else 0.0,
+            float(before.max()) if before.size else 0.0, blend,
+            {key: value[step].copy() for key, value in ex.items()},
+        ))
+    manual = "manual" if not task.automated else "running"
+    for seg in segments:
+        smooth = sig.window(seg.t_start, seg.t_release)
+        durations = seg.durations
+        attempts = task.attempt_log[seg.cycle] if seg.cycle < len(task.attempt_log) else {"grab": 0, "release": 0}
+        gave_up = any(e.name == "gave_up" and e.cycle == seg.cycle for e in events)
+        result.cycles.append(CycleRecord(
+            result.operator, result.group, result.mode, result.series, seg.cycle, scenario.logs[seg.cycle].name,
+            seg.t_start, seg.t_release, seg.cycle_time_s, *(durations[s] for s in SUBTASKS),
+            smooth["total_jerk"], smooth["total_sq_acceleration"], smooth["peak_acceleration_m_s2"],
+            smooth["peak_jerk_m_s3"], int(attempts["grab"]), int(attempts["release"]), gave_up,
+            ends.get((seg.cycle, "go_out"), manual), ends.get((seg.cycle, "go_back"), manual),
+        ))

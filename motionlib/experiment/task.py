@@ -1,0 +1,230 @@
+"""One test series of the log-loading task as an operator of the closed loop (000 section 3.3).
+
+:class:`LoadingTask` has the operator interface of :mod:`motionlib.operators`
+(``input(obs)`` once per control step, ``done(obs)``), so one call of
+:func:`motionlib.sim.run_closed_loop` runs a whole series. It is the operator's plan of the
+series; the hands are a :class:`~motionlib.operators.SimulatedOperator` per manual phase.
+Each work cycle (one log, in the scenario's order):
+
+1. **go out**: after the operator's reaction time, in traded and shared modes the operator
+   gives the *go out* command: the library trajectory selected for the automation's end point
+   (:meth:`Scenario.out_target`) from the current configuration starts
+   (:meth:`SharedController.start_motion`). The hands (goal: the log's grab point) stay off
+   until the motion is nearly completed, then take over (shared) or abort and take over
+   (traded), or wait for it to arrive. In manual modes (M1, M4) the hands drive all the way,
+   through the selected trajectory's waypoints (the route above the wall).
+2. **grab**: once the hands are done (tip still, within their precision of their estimate of
+   the grab point) and no automated motion runs, the grapple closes: the operator holds still
+   for ``grab_dwell_s``. The grab succeeds if the grapple was over the log
+   (:meth:`Scenario.grab_ok`, judged when closing starts); otherwise, after the reaction time,
+   the operator tries again with a fresh estimate.
+3. **go back**: as go out, loaded, toward the release point (automation end
+   :meth:`Scenario.back_target`); the obstacle guard then counts the carried log.
+4. **release**: as grab, ``release_dwell_s``, into the target area (:meth:`Scenario.release_ok`).
+
+Events (:class:`TaskEvent`, in :attr:`LoadingTask.events`): ``cycle_start``, ``go_out``
+(automation command), ``grab_start`` (closing starts), ``grab`` (closed on the log),
+``grab_missed``, ``go_back``, ``release_start``, ``release`` (the log lies in the target area;
+the cycle ends), ``release_missed``, ``gave_up`` (attempts exhausted: the task moves on),
+``finished``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..controller import Mode, OperatorInput, SharedController
+from ..errors import InputError
+from ..operators import Observation, SimulatedOperator
+from ..trajectory import Trajectory
+from .panel import PanelOperator, phase_seed
+from .scenario import Log, Scenario
+
+_REST = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class TaskEvent:
+    """A time stamp of the task (000 section 3.4).
+
+    Attributes
+    ----------
+    t : float
+        Time (s).
+    name : str
+        See the module docstring.
+    cycle : int
+        Work cycle (0-based).
+    detail : str
+    """
+
+    t: float
+    name: str
+    cycle: int
+    detail: str = ""
+
+
+class MotionSource(Protocol):
+    """Gives the automation's trajectory for a target point from the current configuration."""
+
+    def select(self, target_p: Any, current_q: Any) -> Trajectory: ...
+
+
+class LoadingTask:
+    """One series of work cycles (see the module docstring).
+
+    Parameters
+    ----------
+    scenario : Scenario
+    member : PanelOperator
+        Whose hands and reactions.
+    controller : SharedController
+        The controller of the run (its mode decides manual / traded / shared; automation
+        commands go to it; its obstacle guard, if any, is told when a log is carried).
+    sim : object
+        The simulated crane: its ``grapple`` (3,) and ``tip`` (3,) positions (m) judge the grapple action.
+    motions : MotionSource
+        Library trajectories for the automation, and the route for manual modes.
+    series : int
+        Series number (seeds).
+    cycles : int
+        Work cycles (logs) in the series, at most the scenario's number of logs.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        member: PanelOperator,
+        controller: SharedController,
+        sim: Any,
+        motions: MotionSource,
+        series: int = 0,
+        cycles: int | None = None,
+    ):
+        n = len(scenario.logs) if cycles is None else int(cycles)
+        if not 1 <= n <= len(scenario.logs):
+            raise InputError(f"cycles: expected 1..{len(scenario.logs)}, got {cycles!r}")
+        self.scenario = scenario
+        self.member = member
+        self.controller = controller
+        self.mode: Mode = controller.mode
+        self.automated = self.mode.authority != "manual"
+        self.sim = sim
+        self.motions = motions
+        self.series = int(series)
+        self.n_cycles = n
+        self.events: list[TaskEvent] = []
+        self.cycle = 0
+        self.attempts = {"grab": 0, "release": 0}
+        self.attempt_log: list[dict[str, int]] = []  # per finished cycle: grab and release attempts
+        self._op: SimulatedOperator | None = None
+        self._phase = "wait"  # wait, hands, dwell, finished
+        self._kind = "grab"  # the manual part being worked on: grab or release
+        self._t_next = member.params.reaction_time_s  # end of the current wait or dwell
+        self._ok = False
+        self._started = False
+
+    # ---------------------------------------------------------------- interface
+    def input(self, obs: Observation) -> OperatorInput:
+        t = obs.t
+        if not self._started:
+            self._started = True
+            self._event(t, "cycle_start", self._log.name)
+        phase = self._phase
+        if phase == "hands":
+            inp = self._op.input(obs)
+            if self._op.done(obs) and not self.controller.automation_active:
+                self._begin_dwell(t)
+            return inp
+        if phase == "wait" and t >= self._t_next:
+            self._start_part(obs)
+            return OperatorInput(t, _REST, False)  # the button press; the hands start next step
+        if phase == "dwell" and t >= self._t_next:
+            self._end_dwell(t)
+        if self._op is not None:  # hands resting: the last stick eases back to centre
+            return self._op.input(obs)
+        return OperatorInput(t, _REST, False)
+
+    def done(self, obs: Observation) -> bool:
+        return self._phase == "finished"
+
+    @property
+    def finished(self) -> bool:
+        """All work cycles are done."""
+        return self._phase == "finished"
+
+    # ---------------------------------------------------------------- the plan
+    @property
+    def _log(self) -> Log:
+        return self.scenario.logs[self.cycle]
+
+    def _event(self, t: float, name: str, detail: str = "") -> None:
+        self.events.append(TaskEvent(float(t), name, self.cycle, detail))
+
+    def _start_part(self, obs: Observation) -> None:
+        """After the reaction time: the automation command (traded / shared) and new hands for the part."""
+        log, sc, kind = self._log, self.scenario, self._kind
+        goal = log.grab_p if kind == "grab" else log.release_p
+        first = self.attempts[kind] == 0
+        via = None
+        if first:
+            auto_target = sc.out_target(log) if kind == "grab" else sc.back_target(log)
+            traj = self.motions.select(auto_target, obs.q)
+            if self.automated:
+                self.controller.start_motion(traj, obs.t)
+                self._event(obs.t, "go_out" if kind == "grab" else "go_back", f"to {_fmt(auto_target)}")
+            else:
+                via = traj.waypoints[1:-1]  # the route the operator knows (above the wall)
+        seed = phase_seed(self.member.seed, self.series, self.cycle, kind, self.attempts[kind])
+        self._op = SimulatedOperator(goal, self.member.params, self.mode, self.controller.joystick,
+                                     self.controller.crane, seed=seed, name=self.member.name, via=via)
+        self._phase = "hands"
+
+    def _begin_dwell(self, t: float) -> None:
+        sc, log, kind = self.scenario, self._log, self._kind
+        self.attempts[kind] += 1
+        if kind == "grab":
+            self._ok = sc.grab_ok(log, self.sim.grapple, self.sim.tip)
+            dwell = sc.options.grab_dwell_s
+        else:
+            self._ok = sc.release_ok(self.sim.tip)
+            dwell = sc.options.release_dwell_s
+        self._event(t, f"{kind}_start", f"attempt {self.attempts[kind]} at {_fmt(self.sim.tip)}")
+        self._phase = "dwell"
+        self._t_next = t + dwell
+
+    def _end_dwell(self, t: float) -> None:
+        kind = self._kind
+        reaction = self.member.params.reaction_time_s
+        if not self._ok:
+            if self.attempts[kind] < self.scenario.options.max_attempts:
+                self._event(t, f"{kind}_missed")
+                self._phase, self._t_next = "wait", t + reaction
+                return
+            self._event(t, "gave_up", kind)
+        self._event(t, kind, self._log.name)
+        guard = self.controller.guard
+        if guard is not None:  # the guard counts the carried log from now on (or no more)
+            guard.loaded = kind == "grab"
+            guard.reset()
+        if kind == "grab":
+            self._kind = "release"
+        else:
+            self.attempt_log.append(dict(self.attempts))
+            self.attempts = {"grab": 0, "release": 0}
+            self._kind = "grab"
+            if self.cycle + 1 >= self.n_cycles:
+                self._phase = "finished"
+                self._event(t, "finished")
+                return
+            self.cycle += 1
+            self._event(t, "cycle_start", self._log.name)
+        self._phase, self._t_next = "wait", t + reaction
+
+
+def _fmt(p: Any) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in np.asarray(p, dtype=float).tolist()) + ")"
+
