@@ -9,9 +9,9 @@ import click
 import numpy as np
 from scipy.optimize import minimize
 
+from motionlib.fileio import atomic_output
 from motionlib.kinematics import Crane
 from motionlib.model import JOINT_NAMES
-from motionlib.trajectory import atomic_output
 
 from .output import emit_json
 

@@ -50,7 +50,6 @@ def execute(
     from motionlib.mixer import ObstacleGuard
     from motionlib.operators import make_operator, operator_kind
     from motionlib.runlog import RunLog, write_runlog
-    from motionlib.scene import Scene
     from motionlib.sim import LoopOptions, SimParams, SimulatedCrane, run_closed_loop
 
     from .output import emit_json
@@ -59,8 +58,7 @@ def execute(
     current_q = parse_csv_floats(current, 4, "--current") if current else None
     operator_kind(operator_spec)  # fail early on a bad --operator
     lib = Library.open(library)
-    crane = _library_crane(lib)
-    scene = Scene.from_dict(lib.metadata("scene_model"), file=f"{library}:scene_model", crane=crane)
+    crane, scene = lib.crane, lib.scene
     selection = lib.select(target_p, current_q, utility)
     if not selection.ok:
         raise click.ClickException(f"{library}: {selection.message}")
@@ -107,25 +105,6 @@ def execute(
         emit_json(summary)
         return
     _print_summary(summary)
-
-
-def _library_crane(lib: Any) -> Any:
-    """The crane model embedded in a library (``CraneModel.to_dict`` form), checked against its digest."""
-    from motionlib.errors import LibraryFileError
-    from motionlib.kinematics import Crane
-    from motionlib.model import CraneModel, JointSpec
-
-    data = dict(lib.metadata("crane_model"))
-    try:
-        data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
-        if data.get("displacement") is not None:
-            data["displacement"] = tuple(data["displacement"])
-        model = CraneModel(**data)
-    except (KeyError, TypeError) as exc:
-        raise LibraryFileError(f"{lib.path}: the embedded crane model is not readable ({exc})") from exc
-    if model.digest != lib.crane_digest:
-        raise LibraryFileError(f"{lib.path}: the embedded crane model does not match its digest")
-    return Crane(model)
 
 
 def _fmt(value: Any, unit: str, digits: int = 3) -> str:

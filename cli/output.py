@@ -6,17 +6,10 @@ import json
 from typing import Any
 
 import click
-import numpy as np
 
-
-def _default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.floating, np.integer, np.bool_)):
-        return obj.item()
-    raise TypeError(f"cannot serialise {type(obj).__name__}")
+from motionlib.fileio import json_default
 
 
 def emit_json(obj: Any) -> None:
     """Print one JSON object on stdout."""
-    click.echo(json.dumps(obj, default=_default))
+    click.echo(json.dumps(obj, default=json_default))

@@ -51,9 +51,10 @@ import h5py
 import numpy as np
 
 from .errors import InputError, LibraryFileError, PlanningError
+from .fileio import atomic_output
 from .library import EntryRecord, IndexRow, LibraryWriter, entry_id, failure_patterns
 from .library_spec import Entry, LibrarySpec, plan_options
-from .trajectory import Trajectory, atomic_output, write_trajectory
+from .trajectory import Trajectory, write_trajectory
 
 PART_SCHEMA = "motionlib.library-part"
 MANIFEST = "manifest.json"

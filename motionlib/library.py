@@ -43,8 +43,9 @@ import numpy as np
 
 from .checks import check_vector
 from .errors import InputError, LibraryFileError
+from .fileio import atomic_output, json_default
 from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, approach_samples
-from .trajectory import Trajectory, atomic_output, read_trajectory, write_trajectory
+from .trajectory import Trajectory, read_trajectory, write_trajectory
 
 LIBRARY_SCHEMA = "motionlib.library"
 LIBRARY_VERSION = 1
@@ -350,15 +351,8 @@ class LibraryWriter:
         attrs["approach_points"] = k
         attrs["approach_length_m"] = APPROACH_LENGTH_M
         for key in ("crane_model", "scene_model", "spec", "build"):
-            attrs[key] = "json:" + json.dumps(self._header[key], default=_plain, sort_keys=True)
+            attrs[key] = "json:" + json.dumps(self._header[key], default=json_default, sort_keys=True)
         f.flush()
-
-
-def _plain(obj: Any) -> Any:
-    """JSON form of numpy arrays and scalars."""
-    if isinstance(obj, np.ndarray | np.generic):
-        return obj.tolist()
-    raise TypeError(f"cannot serialise {type(obj).__name__}")
 
 
 def _replace_row(record: EntryRecord, row: int) -> EntryRecord:
@@ -598,6 +592,28 @@ class Library:
                 return _json_attr(self.path, f, key)
         except OSError as exc:
             raise LibraryFileError(f"{self.path}: cannot read attribute {key!r} ({exc})") from exc
+
+
+    @functools.cached_property
+    def crane(self) -> Any:
+        """The :class:`~motionlib.kinematics.Crane` embedded in the library, checked against its digest."""
+        from .kinematics import Crane
+        from .model import CraneModel
+
+        try:
+            model = CraneModel.from_dict(self.metadata("crane_model"))
+        except (KeyError, TypeError) as exc:
+            raise LibraryFileError(f"{self.path}: the embedded crane model is not readable ({exc})") from exc
+        if model.digest != self.crane_digest:
+            raise LibraryFileError(f"{self.path}: the embedded crane model does not match its digest")
+        return Crane(model)
+
+    @functools.cached_property
+    def scene(self) -> Any:
+        """The :class:`~motionlib.scene.Scene` embedded in the library (validated as a scene file)."""
+        from .scene import Scene
+
+        return Scene.from_dict(self.metadata("scene_model"), f"{self.path}:scene_model", crane=self.crane)
 
 
 # ------------------------------------------------------------------ reading helpers

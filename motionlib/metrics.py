@@ -126,6 +126,25 @@ def smoothness(t: Any, p: Any, options: FilterOptions | None = None, trim_end_s:
     if keep.sum() < 2:
         keep[:] = True
     t, v, a, j = t[keep], v[keep], a[keep], j[keep]
+    return {**jerk_measures(t, a, j), "peak_speed_m_s": float(np.linalg.norm(v, axis=1).max())}
+
+
+def jerk_measures(t: np.ndarray, a: np.ndarray, j: np.ndarray) -> dict[str, float]:
+    """Total jerk (000 eq. 6 with the third derivative), the squared-acceleration integral, and peaks.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Times (s), n >= 2.
+    a, j : ndarray, shape (n, 3)
+        Tip acceleration (m/s^2) and jerk (m/s^3), e.g. from :func:`filtered_derivatives`.
+
+    Returns
+    -------
+    dict
+        ``total_jerk`` = 1/2 integral |j|^2 dt (m^2/s^5), ``total_sq_acceleration`` =
+        1/2 integral |a|^2 dt (m^2/s^3) (trapezoid rule), ``peak_acceleration_m_s2``, ``peak_jerk_m_s3``.
+    """
     a2 = np.sum(a * a, axis=1)
     j2 = np.sum(j * j, axis=1)
     return {
@@ -133,7 +152,6 @@ def smoothness(t: Any, p: Any, options: FilterOptions | None = None, trim_end_s:
         "total_sq_acceleration": 0.5 * float(np.trapezoid(a2, t)),
         "peak_acceleration_m_s2": float(np.sqrt(a2.max())),
         "peak_jerk_m_s3": float(np.sqrt(j2.max())),
-        "peak_speed_m_s": float(np.linalg.norm(v, axis=1).max()),
     }
 
 

@@ -82,9 +82,10 @@ from typing import Any
 import numpy as np
 
 from .checks import check_points, check_scalar, check_vector
-from .controller import Mode, OperatorInput, TipKinematics
+from .controller import Mode, OperatorInput
 from .errors import InputError, ModelFileError
 from .kinematics import Crane
+from .scalar_kinematics import TipKinematics
 from .sources import CartesianJoystick, JointJoystick, RateSource
 
 Vec3 = tuple[float, float, float]

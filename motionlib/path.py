@@ -195,6 +195,7 @@ def plan_tip_path(
     goal_p: np.ndarray,
     is_valid: Callable[[np.ndarray], bool],
     options: PathOptions | None = None,
+    spline_is_valid: Callable[[np.ndarray], bool] | None = None,
 ) -> PathResult:
     """Plan a collision-free arc-length cubic-spline tip path (000 section 2.3).
 
@@ -207,6 +208,10 @@ def plan_tip_path(
         whether the tip may be at ``p``. Exceptions it raises propagate.
     options : PathOptions, optional
         Planner settings; defaults to ``PathOptions()``.
+    spline_is_valid : callable, optional
+        Validity used for the dense re-check and repair of the spline (default
+        ``is_valid``): a cheaper test may serve there when ``is_valid`` adds a
+        guiding condition that later stages check again anyway.
 
     Returns
     -------
@@ -229,8 +234,10 @@ def plan_tip_path(
         raise InputError("start_p and goal_p coincide: nothing to plan")
     lower, upper = opts.lower_m, opts.upper_m
 
+    check_spline = is_valid if spline_is_valid is None else spline_is_valid
+
     def valid_in_box(p: np.ndarray) -> bool:
-        return bool(np.all(p >= lower) and np.all(p <= upper) and is_valid(p))
+        return bool(np.all(p >= lower) and np.all(p <= upper) and check_spline(p))
 
     diag: dict[str, Any] = {
         "planner": opts.planner,

@@ -171,6 +171,14 @@ class Planner:
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
 
     # ----------------------------------------------------------------- helpers
+    def _grapple_valid(self, p_tip: np.ndarray) -> bool:
+        """The grapple (and log) at ``p_tip`` keeps its clearance, and some telescope extension
+        reaches the point inside the workspace. The dense spline check of the path stage uses
+        this; the arm is screened with the actual telescope profile in the redundancy stage."""
+        return not self._path_checker.tip_in_collision(p_tip, self.options.loaded) and self.crane.reachable(
+            p_tip, self.options.reach_margin_rad
+        )
+
     def _tip_valid(self, p_tip: np.ndarray) -> bool:
         """Path-state validity (000 section 2.3): the grapple (and log) keeps its clearance, and some
         telescope extension reaches the point inside the workspace with the whole arm clear.
@@ -266,7 +274,7 @@ class Planner:
         lower, upper = self._bounds()
         path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
         t0 = time.perf_counter()
-        path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts)
+        path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
         stages["path"] = {"status": path.status.value, "time_s": time.perf_counter() - t0, **path.diagnostics}
         if path.status is not PathStatus.OK:
             return fail(PlanStatus.PATH_FAILED, path.reason)

@@ -20,8 +20,8 @@ import h5py
 import numpy as np
 
 from .errors import LibraryFileError
+from .fileio import atomic_output, json_default
 from .kinematics import Crane
-from .trajectory import atomic_output
 
 RUNLOG_SCHEMA = "motionlib.runlog"
 RUNLOG_VERSION = 1
@@ -146,7 +146,7 @@ def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str,
             for key, value in log.attrs.items():
                 f.attrs[key] = _attr(value)
             if summary is not None:
-                f.attrs["summary"] = json.dumps(summary, default=_json_default)
+                f.attrs["summary"] = json.dumps(summary, default=json_default)
             for key, value in arrays.items():
                 big = value.size >= 256
                 f.create_dataset(key, data=value, compression="gzip" if big else None, shuffle=big,
@@ -214,12 +214,6 @@ def _rate(t: np.ndarray) -> float:
 def _attr(value: Any) -> Any:
     if isinstance(value, (bool, int, float, str, np.integer, np.floating, np.bool_)):
         return value
-    return json.dumps(value, default=_json_default)
+    return json.dumps(value, default=json_default)
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.floating, np.integer, np.bool_)):
-        return obj.item()
-    raise TypeError(f"cannot serialise {type(obj).__name__}")

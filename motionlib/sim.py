@@ -45,10 +45,11 @@ from typing import Any
 import numpy as np
 
 from .checks import check_scalar, check_vector
-from .controller import Authority, CraneState, SharedController, TipKinematics
+from .controller import Authority, CraneState, SharedController
 from .errors import InputError
 from .kinematics import Crane
 from .runlog import RunLog
+from .scalar_kinematics import TipKinematics
 
 GRAVITY_M_S2 = 9.81
 

@@ -11,10 +11,6 @@ a library holds many under ``/trajectories``.
 from __future__ import annotations
 
 import json
-import os
-import tempfile
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,6 +19,7 @@ import h5py
 import numpy as np
 
 from .errors import LibraryFileError
+from .fileio import atomic_output, json_default
 
 TRAJECTORY_SCHEMA = "motionlib.trajectory"
 TRAJECTORY_VERSION = 1
@@ -116,7 +113,7 @@ def write_trajectory(group: h5py.Group, traj: Trajectory, compression: str | Non
         elif isinstance(value, str):
             group.attrs[key] = value
         else:
-            group.attrs[key] = "json:" + json.dumps(value, default=_json_default)
+            group.attrs[key] = "json:" + json.dumps(value, default=json_default)
 
 
 def read_trajectory(group: h5py.Group) -> Trajectory:
@@ -155,39 +152,6 @@ def read_trajectory(group: h5py.Group) -> Trajectory:
     return Trajectory(**arrays, attrs=attrs)
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (np.floating, np.integer, np.bool_)):
-        return obj.item()
-    raise TypeError(f"cannot serialise {type(obj).__name__}")
-
-
-@contextmanager
-def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
-    """Yield a temporary path beside ``path``; on success fsync it and rename it over ``path``.
-
-    A reader never sees a half-written file, and on error the temporary file is
-    removed and an existing ``path`` is left untouched.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the final file the usual permissions
-    try:
-        yield tmp
-        with open(tmp, "rb+") as handle:
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
 def save_plan(path: str | Path, traj: Trajectory, embedded: dict[str, Any]) -> None:
     """Write a plan file: one trajectory at the root, with crane and scene embedded.
 
@@ -204,7 +168,7 @@ def save_plan(path: str | Path, traj: Trajectory, embedded: dict[str, Any]) -> N
         with h5py.File(tmp, "w") as f:
             write_trajectory(f, traj)
             for key, value in embedded.items():
-                f.attrs[key] = "json:" + json.dumps(value, default=_json_default)
+                f.attrs[key] = "json:" + json.dumps(value, default=json_default)
 
 
 def load_plan(path: str | Path) -> Trajectory:

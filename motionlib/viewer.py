@@ -38,11 +38,12 @@ import plotly.graph_objects as go
 
 from .checks import check_scalar
 from .errors import InputError, LibraryFileError
+from .fileio import atomic_output
 from .kinematics import Crane
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
 from .model import CraneModel
 from .scene import Scene
-from .trajectory import Trajectory, atomic_output, read_trajectory
+from .trajectory import Trajectory, read_trajectory
 
 # Colours (tests/test_viewer.py finds the arm in screenshots by ARM_COLOUR's hue).
 ARM_COLOUR = "#f07a10"  # boom, jib, telescope

@@ -302,3 +302,12 @@ def test_cli_select_and_inspect_on_the_built_library(reference, tmp_path):
     assert (report["entries"], report["ok"], report["failed"]) == (N_ENTRIES, lib.n_ok, lib.n_failed)
     assert report["failures"][0]["stage"] == "query"
     assert report["statistics"]["energy_m3"]["max"] == lib.energy_m3.max()
+
+
+def test_library_embeds_its_crane_and_scene(reference, tiny_spec):
+    """Library.crane and Library.scene rebuild the models the library was built from (digests equal)."""
+    out, _, _ = reference
+    spec = LibrarySpec.load(tiny_spec)
+    lib = Library.open(out)
+    assert lib.crane.model == spec.crane.model and lib.crane.model.digest == spec.crane.model.digest
+    assert lib.scene.digest == spec.scene.digest

@@ -16,8 +16,6 @@ from motionlib.controller import (
     Mode,
     OperatorInput,
     SharedController,
-    TipKinematics,
-    resolve_rate_fast,
 )
 from motionlib.errors import InputError
 from motionlib.kinematics import Crane
@@ -25,6 +23,7 @@ from motionlib.metrics import path_deviation
 from motionlib.operators import PassiveOperator
 from motionlib.planner import Planner, PlanOptions
 from motionlib.resolved_rate import joint_limit_weights, resolve_rate
+from motionlib.scalar_kinematics import TipKinematics, resolve_rate_fast
 from motionlib.scene import Scene
 from motionlib.sim import LoopOptions, SimParams, SimulatedCrane, run_closed_loop
 from motionlib.sources import CartesianJoystick, JointJoystick, RateSource

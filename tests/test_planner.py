@@ -197,27 +197,14 @@ def test_toppra_failure_is_reported(lab, lab_scene):
 
 
 # ------------------------------------------------------------------------- CLI
+def plan_cli(goal: str, *extra: str):
+    args = ["plan", "--crane", "lab", "--scene", str(OBSTACLES / "log-loading.yaml"), "--start", "target-center"]
+    return CliRunner().invoke(cli, [*args, "--goal", goal, *extra])
+
+
 def test_cli_plan_json_and_file(tmp_path):
     out = tmp_path / "plan.h5"
-    r = CliRunner().invoke(
-        cli,
-        [
-            "plan",
-            "--crane",
-            "lab",
-            "--scene",
-            str(OBSTACLES / "log-loading.yaml"),
-            "--start",
-            "target-center",
-            "--goal",
-            "pickup-a",
-            "--json",
-            "-o",
-            str(out),
-            "--seed",
-            "2",
-        ],
-    )
+    r = plan_cli("pickup-a", "--json", "-o", str(out), "--seed", "2")
     assert r.exit_code == 0, r.output
     summary = json.loads(r.output)
     for key in ("duration_s", "path_length_m", "baseline_constant_s", "baseline_linear_s", "stage_times_s", "output"):
@@ -233,22 +220,7 @@ def test_cli_plan_json_and_file(tmp_path):
 
 def test_cli_plan_failure_is_one_line_and_writes_nothing(tmp_path):
     out = tmp_path / "plan.h5"
-    r = CliRunner().invoke(
-        cli,
-        [
-            "plan",
-            "--crane",
-            "lab",
-            "--scene",
-            str(OBSTACLES / "log-loading.yaml"),
-            "--start",
-            "target-center",
-            "--goal",
-            "9,0,1",
-            "-o",
-            str(out),
-        ],
-    )
+    r = plan_cli("9,0,1", "-o", str(out))
     assert r.exit_code != 0
     lines = [line for line in r.output.splitlines() if line.strip()]
     assert len(lines) == 1 and "beyond reach" in lines[0] and "Traceback" not in r.output

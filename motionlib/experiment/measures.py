@@ -23,7 +23,7 @@ import numpy as np
 
 from ..checks import check_scalar
 from ..errors import InputError
-from ..metrics import FilterOptions, filtered_derivatives
+from ..metrics import FilterOptions, filtered_derivatives, jerk_measures
 
 
 @dataclass(frozen=True)
@@ -71,14 +71,7 @@ class Signals:
         if t.size < 2:
             return {"total_jerk": 0.0, "total_sq_acceleration": 0.0, "peak_acceleration_m_s2": 0.0,
                     "peak_jerk_m_s3": 0.0}
-        a2 = np.sum(a * a, axis=1)
-        j2 = np.sum(j * j, axis=1)
-        return {
-            "total_jerk": 0.5 * float(np.trapezoid(j2, t)),
-            "total_sq_acceleration": 0.5 * float(np.trapezoid(a2, t)),
-            "peak_acceleration_m_s2": float(np.sqrt(a2.max())),
-            "peak_jerk_m_s3": float(np.sqrt(j2.max())),
-        }
+        return jerk_measures(t, a, j)
 
     def excerpt(self, t_center: float, before_s: float, after_s: float, step: int = 1) -> dict[str, np.ndarray]:
         """The samples within ``[t_center - before_s, t_center + after_s]``, every ``step``-th.

@@ -1,7 +1,7 @@
 """The experiment's output directory: CSV tables, PNG figures, ``report.md`` and ``experiment.json``.
 
 Every file is written atomically (temporary file beside it, fsync, rename:
-:func:`motionlib.trajectory.atomic_output`), so a reader never sees a half-written file.
+:func:`motionlib.fileio.atomic_output`), so a reader never sees a half-written file.
 
 ============================  ===============================================================
 ``cycles.csv``                one row per completed work cycle (:class:`CycleRecord` fields)
@@ -32,8 +32,8 @@ from typing import Any
 
 import numpy as np
 
+from ..fileio import atomic_output
 from ..scene import Scene
-from ..trajectory import atomic_output
 from .panel import PANEL
 from .segment import SUBTASKS
 from .series import TRANSITION_AFTER_S, TRANSITION_BEFORE_S, CycleRecord

@@ -35,11 +35,9 @@ import numpy as np
 
 from ..collision import CollisionChecker
 from ..controller import Mode, SharedController
-from ..errors import InputError, LibraryFileError, MotionlibError
-from ..kinematics import Crane
+from ..errors import InputError, MotionlibError
 from ..library import Library
 from ..mixer import ObstacleGuard
-from ..model import CraneModel
 from ..runlog import RunLog
 from ..scene import Scene
 from ..selection import SelectionStatus
@@ -195,17 +193,6 @@ class SeriesResult:
 
 
 # ====================================================================== set-up
-def library_crane(lib: Library) -> Crane:
-    """The crane embedded in a library, checked against the library's crane digest."""
-    try:
-        model = CraneModel.from_dict(lib.metadata("crane_model"))
-    except (KeyError, TypeError) as exc:
-        raise LibraryFileError(f"{lib.path}: the embedded crane model is not readable ({exc})") from exc
-    if model.digest != lib.crane_digest:
-        raise LibraryFileError(f"{lib.path}: the embedded crane model does not match its digest")
-    return Crane(model)
-
-
 class LibraryMotions:
     """Automated motions from a library: the best trajectory for a target from the current configuration.
 
@@ -270,9 +257,8 @@ class ExperimentContext:
     def __init__(self, library_path: str | Path, options: RunOptions | None = None):
         self.options = options or RunOptions()
         self.library = Library.open(library_path)
-        self.crane = library_crane(self.library)
-        self.scene = Scene.from_dict(self.library.metadata("scene_model"), f"{library_path}:scene_model",
-                                     crane=self.crane)
+        self.crane = self.library.crane
+        self.scene = self.library.scene
         self.scenario = Scenario.from_scene(self.scene, self.options.scenario)
         self.motions = LibraryMotions(self.library)
         self.checker = None
