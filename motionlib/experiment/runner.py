@@ -213,6 +213,8 @@ def ensure_library(
         return LibraryStatus(out, False, 0.0, f"reused {out.name} (up to date with {Path(spec_path).name})")
     resume = parts_dir_for(out).exists()
     summary = build_library(spec, out, workers=workers, resume=resume, progress=progress)
-    note = (f"built {out.name} from {Path(spec_path).name} ({why}): {summary.n_ok} of {summary.n_entries} entries "
-            f"ok, {summary.wall_time_s:.1f} s")
+    note = (
+        f"built {out.name} from {Path(spec_path).name} (none to reuse: {why}): "
+        f"{summary.n_ok} of {summary.n_entries} entries ok, {summary.wall_time_s:.1f} s"
+    )
     return LibraryStatus(out, True, summary.wall_time_s, note)
