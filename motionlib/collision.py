@@ -291,11 +291,7 @@ class CollisionChecker:
         if self.column_blocked:
             return True
         parts = self._place_arm(q1, q2, q3, q4, loaded)
-        ground = self._ground_z
-        for part in parts:
-            if part.lowest() < ground:
-                return True
-        if self._hanging_hits_column(loaded):
+        if self._below_ground(parts) or self._hanging_hits_column(loaded):
             return True
         boom_self = self._boom_self
         if boom_self is not self.boom:
@@ -303,9 +299,19 @@ class CollisionChecker:
         for part in self._hanging[loaded]:
             if fcl.collide(part.obj, boom_self.obj, _COLLIDE_REQUEST):
                 return True
+        return self._hits_scene(self._arm_managers[loaded])
+
+    def _below_ground(self, parts: tuple[_MovingCapsule, ...]) -> bool:
+        ground = self._ground_z
+        for part in parts:  # a plain loop: this is the planner's hot path
+            if part.lowest() < ground:
+                return True
+        return False
+
+    def _hits_scene(self, manager: fcl.DynamicAABBTreeCollisionManager) -> bool:
+        """Whether the placed parts of ``manager`` touch an obstacle (broad phase, first contact)."""
         if not self._obstacles:
             return False
-        manager = self._arm_managers[loaded]
         manager.update()
         data = fcl.CollisionData()
         self._scene_manager.collide(manager, data, _stop_at_first_contact)
@@ -325,19 +331,9 @@ class CollisionChecker:
         x, y, z = _point_values(p_tip)
         loaded = bool(loaded)
         parts = self._place_hanging(x, y, z, loaded)
-        ground = self._ground_z
-        for part in parts:
-            if part.lowest() < ground:
-                return True
-        if self._hanging_hits_column(loaded):
+        if self._below_ground(parts) or self._hanging_hits_column(loaded):
             return True
-        if not self._obstacles:
-            return False
-        manager = self._tip_managers[loaded]
-        manager.update()
-        data = fcl.CollisionData()
-        self._scene_manager.collide(manager, data, _stop_at_first_contact)
-        return data.result.is_collision
+        return self._hits_scene(self._tip_managers[loaded])
 
     def configurations_in_collision(self, q: Any, loaded: bool = False) -> np.ndarray:
         """Collision flags of many configurations.
