@@ -4,16 +4,22 @@ Stages (each its own module, each returning a result with a status):
 
 1. ``path`` (:mod:`motionlib.path`, 000 section 2.3): a collision-free tip path
    with OMPL, simplified and fitted with an arc-length cubic spline, repaired
-   where the spline overshoots into an obstacle.
+   where the spline overshoots into an obstacle. A tip state is valid when the
+   grapple (and log) keeps its clearance and some telescope extension reaches it
+   inside the workspace with the whole arm clear.
 2. ``redundancy`` (:mod:`motionlib.redundancy`, 003 section 4.4.2): the
-   minimum-time Bézier telescope profile (CasADi + IPOPT).
+   minimum-time Bézier telescope profile (CasADi + IPOPT). It and the two
+   baselines (a constant and a linearly interpolated telescope) are screened for
+   the joint limits and whole-arm clearance; if none passes, linear fallback
+   profiles are tried. The trajectory records which profile was used.
 3. ``timing`` (:mod:`motionlib.timing`): TOPPRA under direction-dependent
-   velocity, acceleration and shared-pump flow limits, at rest at both ends.
-   The same path is also timed with a constant and a linearly interpolated
-   telescope (the baselines); the fastest profile that keeps the whole arm
-   clear of the scene is used, so the result is never slower than a baseline.
+   velocity, acceleration and shared-pump flow limits, at rest at both ends,
+   for every usable profile; the fastest is kept, so the result is never slower
+   than a usable baseline.
 4. ``verification``: the 200 Hz samples are re-checked for every limit (1 %
-   tolerance) and for collisions at <= 1 cm tip spacing with the collision module.
+   tolerance) and for collisions at <= 1 cm tip spacing with the collision
+   module. When samples between TOPPRA's grid points overshoot a limit, every
+   profile is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
 
 :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
