@@ -375,6 +375,13 @@ def _read_motion(sec: Section, scene: Any, crane: Crane) -> Motion:
     return Motion(name, loaded, starts, points, grids)
 
 
+def _require_named(sec: Section, key: str, name: str, known: Any, scene: Any, what: str) -> None:
+    """Fail at ``key`` unless ``name`` is among ``known`` (the scene's starts, points or regions)."""
+    if name not in known:
+        listed = ", ".join(sorted(known)) or "none"
+        sec.fail(key, f"scene {scene.name!r} has no {what} {name!r} (known: {listed})")
+
+
 def _read_starts(sec: Section, scene: Any, crane: Crane) -> tuple:
     raw = sec.raw("starts")
     if not isinstance(raw, list) or not raw:
@@ -383,9 +390,7 @@ def _read_starts(sec: Section, scene: Any, crane: Crane) -> tuple:
     for i, item in enumerate(raw):
         key = f"starts[{i}]"
         if isinstance(item, str):
-            if item not in scene.starts:
-                known = ", ".join(sorted(scene.starts)) or "none"
-                sec.fail(key, f"scene {scene.name!r} has no start {item!r} (known: {known})")
+            _require_named(sec, key, item, scene.starts, scene, "start")
             out.append((item, tuple(float(v) for v in scene.starts[item])))
             continue
         sub = Section(item, sec.file, sec.key_path(key))
@@ -411,9 +416,7 @@ def _read_points(tsec: Section, scene: Any) -> tuple:
     for i, item in enumerate(raw):
         key = f"points[{i}]"
         if isinstance(item, str):
-            if item not in scene.points:
-                known = ", ".join(sorted(scene.points)) or "none"
-                tsec.fail(key, f"scene {scene.name!r} has no point {item!r} (known: {known})")
+            _require_named(tsec, key, item, scene.points, scene, "point")
             p = tuple(float(v) for v in scene.points[item])
             out.append((item, p))
         else:
@@ -424,9 +427,7 @@ def _read_points(tsec: Section, scene: Any) -> tuple:
 
 def _read_grid(sec: Section, scene: Any) -> Grid:
     region_name = _nonempty(sec, "region")
-    names = [r.name for r in scene.regions]
-    if region_name not in names:
-        sec.fail("region", f"scene {scene.name!r} has no region {region_name!r} (known: {', '.join(names) or 'none'})")
+    _require_named(sec, "region", region_name, [r.name for r in scene.regions], scene, "region")
     region = scene.region(region_name)
     spacing = sec.number("spacing", gt=0.0)
     raw_heights = sec.raw("heights", None)
