@@ -1,4 +1,4 @@
-"""Benchmark of collision checking (motionlib.collision) on the shipped scenes, one core.
+"""Benchmark of collision checking (motionlib.model.collision) on the shipped scenes, one core.
 
 Run: ``/work/venv/bin/python benchmarks/collision.py [--n N] [--seed S] [--repeat R]``
 
@@ -31,8 +31,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from motionlib.collision import CollisionChecker  # noqa: E402
-from motionlib.scene import Scene  # noqa: E402
+from motionlib.model.collision import CollisionChecker  # noqa: E402
+from motionlib.model.scene import Scene  # noqa: E402
 
 SCENES = sorted((Path(__file__).resolve().parents[1] / "obstacles").glob("*.yaml"))
 

@@ -18,10 +18,10 @@ import tempfile
 import time
 from pathlib import Path
 
-from motionlib.build import default_workers
 from motionlib.experiment.report import write_outputs
 from motionlib.experiment.runner import DEFAULT_SPEC, ExperimentConfig, ensure_library, run_experiment
 from motionlib.experiment.stats import MODES, analyse
+from motionlib.library.build import default_workers
 
 
 def main() -> None:

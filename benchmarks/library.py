@@ -4,13 +4,13 @@ Run: ``/work/venv/bin/python benchmarks/library.py [--entries-build N] [--quick]
 
 1. Build throughput: small specs (lab crane in the log-loading scene, forwarder crane at the
    forwarder site; the first ``N`` entries of the shipped specs' grids) built with
-   :func:`motionlib.build.build_library` on 1 and 2 local workers. Reported: planning
+   :func:`motionlib.library.build.build_library` on 1 and 2 local workers. Reported: planning
    throughput per core (entries / sum of per-entry planning times), wall-clock throughput
    (start-up of the worker processes included), speed-up 1 -> 2 workers, failures, and the
    file size per successful trajectory.
 2. Selection latency on a synthetic 100 000-entry index (the generator of
    benchmarks/selection.py), per utility, in microseconds.
-3. A synthetic 10 000-entry library written through :class:`motionlib.library.LibraryWriter`
+3. A synthetic 10 000-entry library written through :class:`motionlib.library.store.LibraryWriter`
    (index rows from the same generator; short stand-in trajectories, which are not read at
    open): ``Library.open`` time, ``Library.select`` latency, and ``motionlib select`` end to end
    (a fresh process, start-up included).
@@ -37,12 +37,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from selection import STARTS, synthetic_library  # noqa: E402 (benchmarks/selection.py)
 
 from motionlib import Crane, Library  # noqa: E402
-from motionlib.build import LogProgress, build_library  # noqa: E402
-from motionlib.library import EntryRecord, IndexRow, LibraryWriter  # noqa: E402
-from motionlib.library_spec import LibrarySpec  # noqa: E402
-from motionlib.scene import Scene  # noqa: E402
-from motionlib.selection import SelectionIndex  # noqa: E402
-from motionlib.trajectory import Trajectory  # noqa: E402
+from motionlib.library.build import LogProgress, build_library  # noqa: E402
+from motionlib.library.selection import SelectionIndex  # noqa: E402
+from motionlib.library.spec import LibrarySpec  # noqa: E402
+from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter  # noqa: E402
+from motionlib.model.scene import Scene  # noqa: E402
+from motionlib.planning.trajectory import Trajectory  # noqa: E402
 
 
 def _small_spec(shipped: str, n: int, out_dir: Path) -> Path:

@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from motionlib.kinematics import Crane
-from motionlib.limits import JointAccelerationLimit, JointVelocityLimit
-from motionlib.planner import Planner, PlanOptions
-from motionlib.redundancy import TelescopeProfile, joint_path, velocity_limited_time
-from motionlib.scene import Scene
-from motionlib.timing import time_scale
+from motionlib.model.kinematics import Crane
+from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.planning.redundancy import TelescopeProfile, joint_path, velocity_limited_time
+from motionlib.planning.timing import time_scale
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -29,14 +29,15 @@ import time
 
 import numpy as np
 
-from motionlib.collision import CollisionChecker
-from motionlib.controller import SharedController
-from motionlib.kinematics import Crane
-from motionlib.mixer import ObstacleGuard
-from motionlib.operators import make_operator
-from motionlib.planner import Planner, PlanOptions
-from motionlib.scene import Scene
-from motionlib.sim import LoopOptions, SimulatedCrane, run_closed_loop
+from motionlib.model.collision import CollisionChecker
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.runtime.controller import SharedController
+from motionlib.runtime.loop import LoopOptions, run_closed_loop
+from motionlib.runtime.mixer import ObstacleGuard
+from motionlib.runtime.operators import make_operator
+from motionlib.runtime.plant import SimulatedCrane
 
 SCENARIOS = (
     ("M6 passive", "out", "M6", "passive"),

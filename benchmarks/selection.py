@@ -1,4 +1,4 @@
-"""Benchmark of trajectory selection (motionlib.selection) on a synthetic 100 000-entry index.
+"""Benchmark of trajectory selection (motionlib.library.selection) on a synthetic 100 000-entry index.
 
 Run: ``/work/venv/bin/python benchmarks/selection.py [--entries N] [--queries Q] [--seed S]``
 
@@ -21,7 +21,7 @@ import time
 import numpy as np
 
 from motionlib import Crane
-from motionlib.selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex
+from motionlib.library.selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex
 
 STARTS = {  # named start configurations (rad, rad, rad, m)
     "park": (0.0, 1.25, -2.65, 0.0),

@@ -1,4 +1,4 @@
-"""Benchmark of TOPPRA time scaling (motionlib.timing.time_scale) and the phase-plane bound.
+"""Benchmark of TOPPRA time scaling (motionlib.planning.timing.time_scale) and the phase-plane bound.
 
 Run: ``/work/venv/bin/python benchmarks/timing.py [--paths N] [--seed S]``
 
@@ -21,9 +21,9 @@ import numpy as np
 import toppra
 
 from motionlib import Crane
-from motionlib.limits import limits_for, verify_samples
-from motionlib.phase_plane import phase_plane_time
-from motionlib.timing import time_scale
+from motionlib.model.limits import limits_for, verify_samples
+from motionlib.planning.phase_plane import phase_plane_time
+from motionlib.planning.timing import time_scale
 
 PILE = ((-2.5, 4.0, 1.2), (2.5, 8.0, 2.8))  # tip region, base frame (m)
 BUNK = ((2.0, -0.6, 3.0), (3.5, 0.6, 3.6))

@@ -25,8 +25,8 @@ def build(spec_file, output, workers, scheduler, resume, reuse) -> None:
     interruption rerun with --resume. Failed entries are recorded in the library
     with their stage and reason.
     """
-    from motionlib.build import build_library, library_is_current
-    from motionlib.library_spec import LibrarySpec
+    from motionlib.library.build import build_library, library_is_current
+    from motionlib.library.spec import LibrarySpec
 
     spec = LibrarySpec.load(spec_file)
     if reuse:

@@ -10,8 +10,9 @@ import numpy as np
 from scipy.optimize import minimize
 
 from motionlib.fileio import atomic_output
-from motionlib.kinematics import Crane
-from motionlib.model import JOINT_NAMES
+from motionlib.model.crane_model import JOINT_NAMES
+from motionlib.model.kinematics import Crane
+from motionlib.model.urdf import crane_to_urdf
 
 from .output import emit_json
 
@@ -131,7 +132,7 @@ def show(crane_name: str, as_json: bool) -> None:
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="Output file (default: stdout).")
 def export_urdf(crane_name: str, output: Path | None) -> None:
     """Write the crane as URDF (see docs/crane-format.md for what is approximated)."""
-    text = Crane.load(crane_name).to_urdf()
+    text = crane_to_urdf(Crane.load(crane_name))
     if output is None:
         click.echo(text, nl=False)
         return

@@ -42,15 +42,16 @@ def execute(
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib.checks import parse_csv_floats
-    from motionlib.collision import CollisionChecker
-    from motionlib.controller import SharedController
     from motionlib.errors import InputError
-    from motionlib.library import Library
-    from motionlib.metrics import run_summary
-    from motionlib.mixer import ObstacleGuard
-    from motionlib.operators import make_operator, operator_kind
-    from motionlib.runlog import RunLog, write_runlog
-    from motionlib.sim import LoopOptions, SimParams, SimulatedCrane, run_closed_loop
+    from motionlib.library.store import Library
+    from motionlib.model.collision import CollisionChecker
+    from motionlib.runtime.controller import SharedController
+    from motionlib.runtime.loop import LoopOptions, run_closed_loop
+    from motionlib.runtime.metrics import run_summary
+    from motionlib.runtime.mixer import ObstacleGuard
+    from motionlib.runtime.operators import make_operator, operator_kind
+    from motionlib.runtime.plant import SimParams, SimulatedCrane
+    from motionlib.runtime.runlog import RunLog, write_runlog
 
     from .output import emit_json
 
@@ -137,8 +138,8 @@ def _plot_run(out_dir: Path, arrays: dict, events: list, traj: Any, target_p: An
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from motionlib.metrics import filtered_derivatives
-    from motionlib.spline import TipSpline
+    from motionlib.planning.spline import TipSpline
+    from motionlib.runtime.metrics import filtered_derivatives
 
     out_dir.mkdir(parents=True, exist_ok=True)
     t, tip = arrays["t"], arrays["tip_p"]

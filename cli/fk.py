@@ -9,7 +9,7 @@ import numpy as np
 
 from motionlib.checks import parse_csv_floats
 from motionlib.errors import InputError
-from motionlib.kinematics import Crane
+from motionlib.model.kinematics import Crane
 
 from .crane import CRANE_OPTION_HELP
 from .output import emit_json

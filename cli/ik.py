@@ -15,7 +15,7 @@ import numpy as np
 
 from motionlib.checks import check_vector
 from motionlib.errors import UnreachableError
-from motionlib.kinematics import Crane
+from motionlib.model.kinematics import Crane
 
 from .crane import CRANE_OPTION_HELP
 from .fk import FloatList, format_q

@@ -13,7 +13,7 @@ import click
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write coverage.png to this directory.")
 def inspect(library, as_json, plot_dir) -> None:
     """Report on LIBRARY: entries, failures by stage and reason, duration and energy statistics."""
-    from motionlib.library import Library
+    from motionlib.library.store import Library
 
     lib = Library.open(library)
     report = lib.summary()

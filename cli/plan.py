@@ -7,10 +7,10 @@ from pathlib import Path
 import click
 
 from motionlib.checks import parse_csv_floats
-from motionlib.kinematics import Crane
-from motionlib.planner import Planner, PlanOptions
-from motionlib.scene import Scene
-from motionlib.trajectory import save_plan
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.planning.trajectory import save_plan
 
 from .output import emit_json
 
@@ -46,7 +46,7 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
     if output:
         save_plan(output, traj, {"crane_model": crane.model.to_dict(), "scene_model": scene.to_dict()})
     if plot_dir:
-        from motionlib.plots import plot_plan
+        from motionlib.viz.plots import plot_plan
 
         plot_plan(Path(plot_dir), crane, scene, traj)
     summary = {

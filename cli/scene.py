@@ -7,10 +7,10 @@ from typing import Any
 import click
 import numpy as np
 
-from motionlib.collision import CollisionChecker
 from motionlib.errors import ModelFileError, UnreachableError
-from motionlib.kinematics import Crane
-from motionlib.scene import Scene
+from motionlib.model.collision import CollisionChecker
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
 
 from .crane import CRANE_OPTION_HELP
 from .ik import choose_telescope

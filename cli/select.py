@@ -33,7 +33,7 @@ def _finite_or_none(x: float) -> float | None:
 def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candidates, crane, as_json) -> None:
     """Rank the trajectories of LIBRARY that end near TARGET (and start near CURRENT), best first."""
     from motionlib.checks import parse_csv_floats
-    from motionlib.library import Library
+    from motionlib.library.store import Library
 
     target_p = parse_csv_floats(target, 3, "--target")
     current_q = parse_csv_floats(current, 4, "--current") if current else None

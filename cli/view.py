@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from motionlib.viewer import ViewOptions, write_view
+from motionlib.viz.viewer import ViewOptions, write_view
 
 from .output import emit_json
 

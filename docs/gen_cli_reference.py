@@ -86,7 +86,7 @@ def section(command: click.Command, ctx: click.Context) -> str:
 
 def render() -> str:
     """The whole reference (markdown)."""
-    from cli.main import cli
+    from motionlib_cli.main import cli
 
     ctx = click.Context(cli, info_name=PROG, terminal_width=100, max_content_width=100)
     return HEADER + "\n" + "\n".join(section(cmd, c) for cmd, c in walk(cli, ctx)).rstrip() + "\n"

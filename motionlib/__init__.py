@@ -1,4 +1,43 @@
-"""motionlib: motion planning, motion libraries and shared control for hydraulic forwarder cranes."""
+"""motionlib: motion planning, motion libraries and shared control for hydraulic forwarder cranes.
+
+One call per job
+----------------
+plan(crane, scene, start, goal, options) -> PlanResult
+    Plan one verified minimum-time trajectory (:mod:`motionlib.planning`).
+build_library(spec, output, ...) -> BuildSummary
+    Build a motion library from a spec, in parallel or on a Dask cluster (:mod:`motionlib.library`).
+Library.open(path).select(target_p, current_q, utility) -> SelectionResult
+    Rank a library's trajectories for an operator's target (003 eqs. 5.3-5.7).
+execute(trajectory, crane, scene, mode=..., operator=..., target=...) -> RunResult
+    Run a trajectory in the 200 Hz shared-control loop on the simulated crane (:mod:`motionlib.runtime`).
+run_experiment(config) -> ExperimentResult
+    000's log-loading experiment in simulation (:mod:`motionlib.experiment`).
+write_view(path, output) -> ViewResult
+    A self-contained 3D page of a plan, library or run log (:mod:`motionlib.viz`).
+
+The types users load: :class:`Crane` (``Crane.load("forwarder")``), :class:`Scene`
+(``Scene.load(path)``), :class:`LibrarySpec` (``LibrarySpec.load(path)``),
+:class:`Trajectory` (``load_plan(path)``) and :class:`Library`.
+
+Subpackages follow the data flow; a lower layer never imports a higher one:
+
+=====================  ==========================================================
+``motionlib.model``     crane model, kinematics, limits, scene, collision, URDF
+``motionlib.planning``  path, spline, telescope redundancy, timing, verification, planner
+``motionlib.library``   library spec, parallel build, HDF5 store, selection
+``motionlib.runtime``   controller, sources, mixer, simulated crane, closed loop, run log
+``motionlib.viz``       figures and the 3D viewer
+``motionlib.experiment`` the log-loading experiment
+=====================  ==========================================================
+
+Names are imported on first use (PEP 562), so ``import motionlib`` stays cheap and a
+command that only selects never loads the planner's solvers.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from .errors import (
     InputError,
@@ -8,12 +47,37 @@ from .errors import (
     PlanningError,
     UnreachableError,
 )
-from .kinematics import Capsule, Crane
+
+# public name -> module that defines it
+_EXPORTS: dict[str, str] = {
+    # jobs
+    "plan": "motionlib.planning.planner",
+    "build_library": "motionlib.library.build",
+    "execute": "motionlib.runtime.execute",
+    "run_experiment": "motionlib.experiment.runner",
+    "write_view": "motionlib.viz.viewer",
+    # types users load or get back
+    "Crane": "motionlib.model.kinematics",
+    "Capsule": "motionlib.model.kinematics",
+    "Scene": "motionlib.model.scene",
+    "LibrarySpec": "motionlib.library.spec",
+    "Library": "motionlib.library.store",
+    "Trajectory": "motionlib.planning.trajectory",
+    "load_plan": "motionlib.planning.trajectory",
+    "PlanOptions": "motionlib.planning.planner",
+    "PlanResult": "motionlib.planning.planner",
+    "PlanStatus": "motionlib.planning.planner",
+    "BuildSummary": "motionlib.library.build",
+    "SelectionResult": "motionlib.library.selection",
+    "Mode": "motionlib.runtime.control_types",
+    "RunResult": "motionlib.runtime.execute",
+    "ExecuteOptions": "motionlib.runtime.execute",
+    "ExperimentConfig": "motionlib.experiment.runner",
+    "ViewOptions": "motionlib.viz.viewer",
+}
 
 __all__ = [
-    "Capsule",
-    "Crane",
-    "Library",
+    *_EXPORTS,
     "InputError",
     "LibraryFileError",
     "ModelFileError",
@@ -22,10 +86,29 @@ __all__ = [
     "UnreachableError",
 ]
 
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from .experiment.runner import ExperimentConfig, run_experiment
+    from .library.build import BuildSummary, build_library
+    from .library.selection import SelectionResult
+    from .library.spec import LibrarySpec
+    from .library.store import Library
+    from .model.kinematics import Capsule, Crane
+    from .model.scene import Scene
+    from .planning.planner import PlanOptions, PlanResult, PlanStatus, plan
+    from .planning.trajectory import Trajectory, load_plan
+    from .runtime.control_types import Mode
+    from .runtime.execute import ExecuteOptions, RunResult, execute
+    from .viz.viewer import ViewOptions, write_view
 
-def __getattr__(name: str):  # PEP 562: motionlib.Library without importing h5py/scipy on `import motionlib`
-    if name == "Library":
-        from .library import Library
 
-        return Library
-    raise AttributeError(f"module 'motionlib' has no attribute {name!r}")
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'motionlib' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

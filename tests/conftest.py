@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from motionlib.kinematics import Crane
+from motionlib.model.kinematics import Crane
 
 SHIPPED_CRANES = ("lab", "forwarder")
 

@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
 from motionlib import Library
-from motionlib.build import LogProgress, RichProgress, build_library, library_is_current, parts_dir_for
 from motionlib.errors import InputError, LibraryFileError
-from motionlib.library_spec import LibrarySpec
-from motionlib.planner import Planner, PlanOptions
+from motionlib.library.build import LogProgress, RichProgress, build_library, library_is_current, parts_dir_for
+from motionlib.library.spec import LibrarySpec
+from motionlib.planning.planner import Planner, PlanOptions
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -275,7 +275,7 @@ def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
 def test_rich_progress_on_a_terminal():
     from rich.console import Console
 
-    from motionlib.build import EntryOutcome
+    from motionlib.library.build import EntryOutcome
 
     buf = io.StringIO()
     progress = RichProgress(Console(file=buf, force_terminal=True, width=150))

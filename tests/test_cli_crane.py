@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import yourdfpy
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
 from motionlib.errors import UnreachableError
-from motionlib.kinematics import Crane
-from motionlib.model import CRANES_DIR, JOINT_NAMES
+from motionlib.model.crane_model import CRANES_DIR, JOINT_NAMES
+from motionlib.model.kinematics import Crane
 
 SHIPPED_CRANES = sorted(p.stem for p in CRANES_DIR.glob("*.yaml"))
 

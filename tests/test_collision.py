@@ -1,4 +1,4 @@
-"""Collision checking (motionlib.collision) with real python-fcl, against hand-computed references."""
+"""Collision checking (motionlib.model.collision) with real python-fcl, against hand-computed references."""
 
 from __future__ import annotations
 
@@ -13,11 +13,16 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize_scalar
 from scipy.spatial.transform import Rotation
 
-from motionlib.collision import CollisionChecker, _MovingCapsule, obstacle_object, segment_configurations
 from motionlib.errors import InputError, UnreachableError
-from motionlib.kinematics import Crane
-from motionlib.model import CRANES_DIR, crane_model_from_dict
-from motionlib.scene import Scene
+from motionlib.model.collision import (
+    CollisionChecker,
+    _MovingCapsule,
+    obstacle_object,
+    segment_configurations,
+)
+from motionlib.model.crane_model import CRANES_DIR, crane_model_from_dict
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
 
 SHIPPED = {"log-loading": "obstacles/log-loading.yaml", "forwarder-site": "obstacles/forwarder-site.yaml"}
 

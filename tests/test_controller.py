@@ -8,26 +8,20 @@ import math
 import numpy as np
 import pytest
 
-from motionlib.controller import (
-    Authority,
-    ControllerParams,
-    CraneState,
-    Flag,
-    Mode,
-    OperatorInput,
-    SharedController,
-)
 from motionlib.errors import InputError
-from motionlib.kinematics import Crane
-from motionlib.metrics import path_deviation
-from motionlib.operators import PassiveOperator
-from motionlib.planner import Planner, PlanOptions
-from motionlib.resolved_rate import joint_limit_weights, resolve_rate
-from motionlib.scalar_kinematics import TipKinematics, resolve_rate_fast
-from motionlib.scene import Scene
-from motionlib.sim import LoopOptions, SimParams, SimulatedCrane, run_closed_loop
-from motionlib.sources import CartesianJoystick, JointJoystick, RateSource
-from motionlib.spline import TipSpline
+from motionlib.model.fast_kinematics import TipKinematics
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.planning.spline import TipSpline
+from motionlib.runtime.control_types import Authority, ControllerParams, CraneState, Flag, Mode, OperatorInput
+from motionlib.runtime.controller import SharedController
+from motionlib.runtime.loop import LoopOptions, run_closed_loop
+from motionlib.runtime.metrics import path_deviation
+from motionlib.runtime.operators import PassiveOperator
+from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.runtime.resolved_rate import joint_limit_weights, resolve_rate, resolve_rate_fast
+from motionlib.runtime.sources import CartesianJoystick, JointJoystick, RateSource
 
 DT = 0.005
 Q_MID = (0.3, 0.5, -1.4, 0.4)

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
-from motionlib.kinematics import Crane
-from motionlib.library import EntryRecord, IndexRow, LibraryWriter
-from motionlib.planner import Planner
-from motionlib.runlog import read_runlog
-from motionlib.scene import Scene
+from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner
+from motionlib.runtime.runlog import read_runlog
 
 JSON_KEYS = (
     "cycle_time_s", "final_error_m", "total_jerk", "peak_acceleration_m_s2", "max_deviation_m", "handover_time_s",

@@ -8,9 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionlib.controller import Flag, SharedController
 from motionlib.errors import InputError, ModelFileError
-from motionlib.operators import (
+from motionlib.runtime.control_types import Flag
+from motionlib.runtime.controller import SharedController
+from motionlib.runtime.loop import LoopOptions, run_closed_loop
+from motionlib.runtime.operators import (
     OPERATOR_PRESETS,
     Observation,
     PassiveOperator,
@@ -18,7 +20,7 @@ from motionlib.operators import (
     SimulatedOperator,
     make_operator,
 )
-from motionlib.sim import LoopOptions, SimulatedCrane, run_closed_loop
+from motionlib.runtime.plant import SimulatedCrane
 
 Q_MID = (0.3, 0.5, -1.4, 0.4)
 

@@ -15,11 +15,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
 
-from motionlib.controller import CraneState, Flag, OperatorInput, SharedController
-from motionlib.kinematics import Crane
-from motionlib.planner import Planner
-from motionlib.scene import Scene
-from motionlib.sim import SimulatedCrane
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner
+from motionlib.runtime.control_types import CraneState, Flag, OperatorInput
+from motionlib.runtime.controller import SharedController
+from motionlib.runtime.plant import SimulatedCrane
 
 DT = 0.005
 EPS = 1e-12

@@ -16,9 +16,9 @@ import click
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from motionlib_cli.main import COMMANDS, cli
 
-from cli.main import COMMANDS, cli
-from motionlib.kinematics import Crane
+from motionlib.model.kinematics import Crane
 
 ROOT = Path(__file__).resolve().parent.parent
 DOCS = ROOT / "docs"

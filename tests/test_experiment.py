@@ -17,9 +17,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
-from motionlib.controller import SharedController
 from motionlib.errors import InputError
 from motionlib.experiment import (
     PANEL,
@@ -41,8 +40,9 @@ from motionlib.experiment.stats import (
     time_table,
     transition_table,
 )
-from motionlib.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
-from motionlib.scene import Scene
+from motionlib.model.scene import Scene
+from motionlib.runtime.controller import SharedController
+from motionlib.runtime.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "obstacles" / "log-loading.yaml"
@@ -241,7 +241,7 @@ def test_operator_takes_over_near_the_end_of_the_automated_motion(lab):
 
 def test_controller_reports_the_end_of_the_motion_in_control(lab):
     scene = Scene.load(SCENE)
-    from motionlib.planner import Planner
+    from motionlib.planning.planner import Planner
 
     result = Planner(lab, scene).plan(scene.start("target-center"), scene.point("pickup-between"))
     assert result.ok, result.reason

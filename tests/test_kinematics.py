@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from motionlib.errors import UnreachableError
-from motionlib.kinematics import Crane
+from motionlib.model.kinematics import Crane
 
 
 def _gamma(crane: Crane, q4: float) -> float:

@@ -15,15 +15,15 @@ import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
 from motionlib import Library
 from motionlib.errors import InputError, LibraryFileError
-from motionlib.kinematics import Crane
-from motionlib.library import EntryRecord, IndexRow, LibraryWriter, entry_id
-from motionlib.scene import Scene
-from motionlib.selection import DEFAULT_START_WEIGHTS
-from motionlib.trajectory import Trajectory
+from motionlib.library.selection import DEFAULT_START_WEIGHTS
+from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter, entry_id
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.trajectory import Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
 LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
@@ -136,7 +136,7 @@ def test_layout_is_plain_hdf5(synthetic):
     path, written = synthetic
     crane = Crane.load("lab")
     with h5py.File(path, "r") as f:
-        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 1
+        assert f.attrs["schema"] == "motionlib.library.store" and f.attrs["schema_version"] == 1
         assert json.loads(f.attrs["crane_model"][5:]) == json.loads(json.dumps(crane.model.to_dict()))
         assert json.loads(f.attrs["scene_model"][5:])["name"] == "log-loading"
         assert f.attrs["crane_digest"] == crane.model.digest
@@ -309,7 +309,7 @@ def _not_hdf5(src: Path, dst: Path) -> None:
 def _other_hdf5(src: Path, dst: Path) -> None:
     with h5py.File(dst, "w") as f:
         f["q"] = np.zeros((3, 4))
-        f.attrs["schema"] = "motionlib.trajectory"
+        f.attrs["schema"] = "motionlib.planning.trajectory"
 
 
 def _newer(src: Path, dst: Path) -> None:
@@ -328,7 +328,7 @@ BAD_FILES = [
     (_truncated, r"truncated or corrupt"),
     (_corrupted, r"truncated or corrupt"),
     (_not_hdf5, r"truncated or corrupt"),
-    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.trajectory'"),
+    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.planning.trajectory'"),
     (_newer, r"schema version 2 is newer than this motionlib reads \(1\)"),
     (_missing_index, r"/index/end_p is missing"),
 ]
@@ -361,7 +361,7 @@ def test_library_for_another_crane(tmp_path, synthetic):
         Library.open(path, crane=Crane.load("forwarder"))
     assert "\n" not in str(info.value)
     changed = tmp_path / "lab.yaml"
-    text = (ROOT / "motionlib" / "cranes" / "lab.yaml").read_text()
+    text = (ROOT / "motionlib" / "model" / "cranes" / "lab.yaml").read_text()
     changed.write_text(text.replace("boom_length: 2.0", "boom_length: 2.1", 1))
     assert "boom_length: 2.1" in changed.read_text()
     with pytest.raises(LibraryFileError, match="a different model of crane 'lab'"):
@@ -427,7 +427,7 @@ def test_cli_select_does_not_import_the_planner_stack(synthetic):
     target = ",".join(map(str, lib.end_p[0]))
     code = (
         "import sys\n"
-        "from cli.main import cli\n"
+        "from motionlib_cli.main import cli\n"
         f"cli(['select', {str(synthetic[0])!r}, '--target', {target!r}, '--json'], standalone_mode=False)\n"
         "heavy = sorted({m.split('.')[0] for m in sys.modules} & {'casadi', 'toppra', 'ompl', 'fcl', 'matplotlib'})\n"
         "print('HEAVY', heavy)\n"

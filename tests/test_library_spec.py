@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 import yaml
 
-from motionlib.collision import CollisionChecker
 from motionlib.errors import ModelFileError
-from motionlib.library_spec import SEED_MAX, LibrarySpec, entry_seed, grid_points
+from motionlib.library.spec import SEED_MAX, LibrarySpec, entry_seed, grid_points
+from motionlib.model.collision import CollisionChecker
 
 ROOT = Path(__file__).resolve().parents[1]
 LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"

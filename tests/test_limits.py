@@ -1,4 +1,4 @@
-"""Tests of motionlib.limits: limit objects, limits_for and verify_samples."""
+"""Tests of motionlib.model.limits: limit objects, limits_for and verify_samples."""
 
 from __future__ import annotations
 
@@ -14,8 +14,9 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from motionlib.errors import InputError
-from motionlib.kinematics import Crane
-from motionlib.limits import (
+from motionlib.model.crane_model import CRANES_DIR
+from motionlib.model.kinematics import Crane
+from motionlib.model.limits import (
     JointAccelerationLimit,
     JointPositionLimit,
     JointVelocityLimit,
@@ -23,7 +24,6 @@ from motionlib.limits import (
     limits_for,
     verify_samples,
 )
-from motionlib.model import CRANES_DIR
 
 NAMES = ("slew", "boom", "jib", "telescope")
 QD_MIN = np.array([-0.45, -0.30, -0.30, -0.65])

@@ -9,11 +9,11 @@ import h5py
 import numpy as np
 import pytest
 
-from motionlib.controller import ControllerStatus, Event
 from motionlib.errors import InputError, LibraryFileError
-from motionlib.metrics import FilterOptions, filtered_derivatives, path_deviation, run_summary, smoothness
-from motionlib.runlog import RunLog, read_runlog, tip_motion, write_runlog
-from motionlib.spline import TipSpline
+from motionlib.planning.spline import TipSpline
+from motionlib.runtime.control_types import ControllerStatus, Event
+from motionlib.runtime.metrics import FilterOptions, filtered_derivatives, path_deviation, run_summary, smoothness
+from motionlib.runtime.runlog import RunLog, read_runlog, tip_motion, write_runlog
 
 FS = 200.0
 

@@ -11,8 +11,8 @@ import pytest
 import yaml
 
 from motionlib.errors import ModelFileError
-from motionlib.kinematics import Crane
-from motionlib.model import CRANES_DIR, JOINT_NAMES, load_crane_model
+from motionlib.model.crane_model import CRANES_DIR, JOINT_NAMES, load_crane_model
+from motionlib.model.kinematics import Crane
 
 SHIPPED_FILES = sorted(CRANES_DIR.glob("*.yaml"))
 
@@ -151,7 +151,7 @@ def test_missing_file_names_the_file(tmp_path):
 
 def test_model_record_round_trip(crane) -> None:
     """CraneModel.from_dict inverts to_dict (the form embedded in plan and library files), digest included."""
-    from motionlib.model import CraneModel
+    from motionlib.model.crane_model import CraneModel
 
     record = json.loads(json.dumps(crane.model.to_dict()))
     again = CraneModel.from_dict(record)

@@ -17,8 +17,8 @@ from hypothesis import strategies as st
 from ompl import util as ou
 
 from motionlib.errors import InputError
-from motionlib.path import PathOptions, PathStatus, available_planners, plan_tip_path, spline_check_grid
-from motionlib.spline import TipSpline
+from motionlib.planning.path import PathOptions, PathStatus, available_planners, plan_tip_path, spline_check_grid
+from motionlib.planning.spline import TipSpline
 
 BOX = ((-3.0, -3.0, -1.0), (3.0, 3.0, 3.0))
 SPHERE_C = np.array([0.0, 0.0, 1.0])

@@ -1,4 +1,4 @@
-"""Tests of motionlib.phase_plane (003 eqs. 4.8-4.12) against independent references."""
+"""Tests of motionlib.planning.phase_plane (003 eqs. 4.8-4.12) against independent references."""
 
 from __future__ import annotations
 
@@ -10,10 +10,15 @@ from hypothesis.extra.numpy import arrays
 from scipy.integrate import quad, solve_ivp
 
 from motionlib.errors import InputError
-from motionlib.limits import JointAccelerationLimit, JointPositionLimit, JointVelocityLimit, PumpFlowLimit
-from motionlib.phase_plane import phase_plane_time
+from motionlib.model.limits import (
+    JointAccelerationLimit,
+    JointPositionLimit,
+    JointVelocityLimit,
+    PumpFlowLimit,
+)
+from motionlib.planning.phase_plane import phase_plane_time
 
-# forwarder crane limits (motionlib/cranes/forwarder.yaml)
+# forwarder crane limits (motionlib/model/cranes/forwarder.yaml)
 QD_MIN = np.array([-0.45, -0.30, -0.30, -0.65])
 QD_MAX = np.array([0.45, 0.22, 0.25, 0.50])
 DISP = np.array([2.4e-3, 6.5e-3, 5.5e-3, 3.1e-3])

@@ -15,14 +15,14 @@ import h5py
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 
-from cli.main import cli
-from motionlib.collision import CollisionChecker
-from motionlib.kinematics import Crane
-from motionlib.planner import Planner, PlanOptions, PlanStatus
-from motionlib.redundancy import RedundancyOptions
-from motionlib.scene import Scene
-from motionlib.trajectory import load_plan
+from motionlib.model.collision import CollisionChecker
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
+from motionlib.planning.redundancy import RedundancyOptions
+from motionlib.planning.trajectory import load_plan
 
 OBSTACLES = Path(__file__).resolve().parent.parent / "obstacles"
 

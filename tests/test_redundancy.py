@@ -2,7 +2,7 @@
 
 References: the Bernstein closed form (binomial coefficients) for the Bézier
 profile, finite differences for path derivatives, and the phase-plane time of
-the constant and linear baselines computed by motionlib.phase_plane.
+the constant and linear baselines computed by motionlib.planning.phase_plane.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.special import comb
 
-from motionlib.kinematics import Crane
-from motionlib.redundancy import (
+from motionlib.model.kinematics import Crane
+from motionlib.planning.redundancy import (
     RedundancyOptions,
     RedundancyStatus,
     TelescopeProfile,
@@ -21,7 +21,7 @@ from motionlib.redundancy import (
     path_kinematics,
     velocity_limited_time,
 )
-from motionlib.spline import TipSpline
+from motionlib.planning.spline import TipSpline
 
 
 def line(a, b) -> TipSpline:

@@ -1,4 +1,4 @@
-"""Scene files (motionlib.scene), the shipped scenes, and ``motionlib scene check``."""
+"""Scene files (motionlib.model.scene), the shipped scenes, and ``motionlib scene check``."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 import yaml
 from click.testing import CliRunner
+from motionlib_cli.main import cli
 from scipy.spatial.transform import Rotation
 
-from cli.main import cli
-from motionlib.collision import CollisionChecker
 from motionlib.errors import InputError, ModelFileError
-from motionlib.kinematics import Crane
-from motionlib.scene import Obstacle, Scene
+from motionlib.model.collision import CollisionChecker
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Obstacle, Scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "obstacles").glob("*.yaml"))
@@ -220,7 +220,7 @@ def test_scene_checked_against_another_crane(tmp_path):
     # a crane file path is resolved relative to the scene file
     crane_file = tmp_path / "cranes" / "mine.yaml"
     crane_file.parent.mkdir()
-    crane_file.write_text((ROOT / "motionlib" / "cranes" / "lab.yaml").read_text())
+    crane_file.write_text((ROOT / "motionlib" / "model" / "cranes" / "lab.yaml").read_text())
     scene_file = tmp_path / "s.yaml"
     scene_file.write_text(yaml.safe_dump({"name": "s", "crane": "cranes/mine.yaml"}))
     assert Scene.load(scene_file).load_crane().name == "lab"

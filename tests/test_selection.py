@@ -1,4 +1,4 @@
-"""Tests of motionlib.selection against independent references.
+"""Tests of motionlib.library.selection against independent references.
 
 References: a brute-force scan over every entry (written here, not in the library) for 003 eqs.
 5.3-5.6; a dense-polyline evaluation and a closed-form expectation for the robust utility (003 eq. 5.7);
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from motionlib import Crane, InputError
-from motionlib.selection import (
+from motionlib.library.selection import (
     DEFAULT_START_WEIGHTS,
     SelectionIndex,
     SelectionStatus,

@@ -1,4 +1,4 @@
-"""Tests of motionlib.timing (TOPPRA time scaling) against closed forms and the phase plane."""
+"""Tests of motionlib.planning.timing (TOPPRA time scaling) against closed forms and the phase plane."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from scipy.integrate import cumulative_trapezoid
 
 from motionlib.errors import InputError, PlanningError
-from motionlib.kinematics import Crane
-from motionlib.limits import (
+from motionlib.model.kinematics import Crane
+from motionlib.model.limits import (
     JointAccelerationLimit,
     JointPositionLimit,
     JointVelocityLimit,
@@ -19,8 +19,8 @@ from motionlib.limits import (
     limits_for,
     verify_samples,
 )
-from motionlib.phase_plane import phase_plane_time
-from motionlib.timing import TimingStatus, sample_times, time_scale
+from motionlib.planning.phase_plane import phase_plane_time
+from motionlib.planning.timing import TimingStatus, sample_times, time_scale
 
 LAB = Crane.load("lab")
 FWD = Crane.load("forwarder")

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import yourdfpy
 
-from motionlib.model import JOINT_NAMES
-from motionlib.urdf import LINK_OF_FRAME
+from motionlib.model.crane_model import JOINT_NAMES
+from motionlib.model.urdf import LINK_OF_FRAME, crane_to_urdf
 
 
 @pytest.fixture(scope="module")
 def robot(crane) -> yourdfpy.URDF:
-    return yourdfpy.URDF.load(io.BytesIO(crane.to_urdf().encode()), load_meshes=False)
+    return yourdfpy.URDF.load(io.BytesIO(crane_to_urdf(crane).encode()), load_meshes=False)
 
 
 def _set(robot: yourdfpy.URDF, q: np.ndarray) -> None:

@@ -31,18 +31,18 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from motionlib_cli.main import cli
 from PIL import Image
 
-from cli.main import cli
-from motionlib.controller import Authority
 from motionlib.errors import LibraryFileError
-from motionlib.kinematics import Crane
-from motionlib.library import Library
-from motionlib.meshes import CapsuleMesh, box_mesh, hull_mesh, local_mesh, obstacle_mesh
-from motionlib.runlog import read_runlog
-from motionlib.scene import Obstacle, Scene
-from motionlib.trajectory import load_plan
-from motionlib.viewer import (
+from motionlib.library.store import Library
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Obstacle, Scene
+from motionlib.planning.trajectory import load_plan
+from motionlib.runtime.control_types import Authority
+from motionlib.runtime.runlog import read_runlog
+from motionlib.viz.meshes import CapsuleMesh, box_mesh, hull_mesh, local_mesh, obstacle_mesh
+from motionlib.viz.viewer import (
     ARM_COLOUR,
     ViewOptions,
     crane_from_record,
@@ -217,7 +217,7 @@ def test_view_cli_writes_a_self_contained_page(plan_file, tmp_path):
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     duration = float(h5py.File(plan_file, "r").attrs["duration_s"])
-    assert report["kind"] == "motionlib.trajectory" and report["output"] == str(out)
+    assert report["kind"] == "motionlib.planning.trajectory" and report["output"] == str(out)
     assert report["frames"] == int(np.ceil(duration * 10 - 1e-9)) + 1
     html = out.read_text()
     assert report["size_bytes"] == out.stat().st_size
@@ -435,7 +435,7 @@ def test_library_view(library_file, tmp_path):
     lib = Library.open(library_file)
     out = tmp_path / "library.html"
     result = write_view(library_file, out)
-    assert result.kind == "motionlib.library" and result.n_frames == 0
+    assert result.kind == "motionlib.library.store" and result.n_frames == 0
     with browser() as b:
         b.open(out.as_uri(), VIEWPORT)
         b.wait_for(READY, 60)
@@ -470,7 +470,7 @@ def test_runlog_view(runlog_file, library_file, tmp_path):
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     duration = log["t"][-1] - log["t"][0]
-    assert report["kind"] == "motionlib.runlog"
+    assert report["kind"] == "motionlib.runtime.runlog"
     assert report["frames"] == int(np.ceil(duration * 10 - 1e-9)) + 1
     # The frames' tip is the logged tip (the log's tip_p) at the frame times, every 0.1 s = 20 samples.
     view = runlog_view(runlog_file, ViewOptions())

@@ -1,8 +1,8 @@
 """The operator panel of the experiment: two experts (O1, O2) and three novices (O3-O5) (000 section 3.3).
 
-Each simulated operator is a :class:`motionlib.operators.SimulatedOperator` whose parameters
+Each simulated operator is a :class:`motionlib.runtime.operators.SimulatedOperator` whose parameters
 are interpolated between the runtime's ``novice`` and ``expert`` presets
-(:data:`motionlib.operators.OPERATOR_PRESETS`, each parameter reasoned there) by a *skill*
+(:data:`motionlib.runtime.operators.OPERATOR_PRESETS`, each parameter reasoned there) by a *skill*
 ``s`` in [0, 1]::
 
     value = novice + s (expert - novice),   max_joints = round(1 + 2 s)
@@ -26,7 +26,7 @@ import hashlib
 from dataclasses import dataclass, fields, replace
 
 from ..errors import InputError
-from ..operators import OPERATOR_PRESETS, OperatorParams
+from ..runtime.operators import OPERATOR_PRESETS, OperatorParams
 
 #: The interpolated parameters (the others are the presets' common values).
 _INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_tau_s",

@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from ..fileio import atomic_output
-from ..scene import Scene
+from ..model.scene import Scene
 from .panel import PANEL
 from .segment import SUBTASKS
 from .series import TRANSITION_AFTER_S, TRANSITION_BEFORE_S, CycleRecord

@@ -9,8 +9,8 @@ depend on the number of workers or the order of completion; they are returned so
 operator, mode and series.
 
 :func:`ensure_library` builds the library of a spec (``libraries/log-loading.yaml``) with
-:func:`motionlib.build.build_library`, or reuses an existing file that
-:func:`motionlib.build.library_is_current` finds up to date.
+:func:`motionlib.library.build.build_library`, or reuses an existing file that
+:func:`motionlib.library.build.library_is_current` finds up to date.
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..build import build_library, default_workers, library_is_current, parts_dir_for
-from ..controller import Mode
 from ..errors import InputError
-from ..library_spec import LibrarySpec
+from ..library.build import build_library, default_workers, library_is_current, parts_dir_for
+from ..library.spec import LibrarySpec
+from ..runtime.control_types import Mode
 from .panel import PANEL, panel_operator
 from .series import ExperimentContext, RunOptions, SeriesResult, run_series
 from .stats import MODES

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..checks import check_scalar
 from ..errors import InputError
-from ..scene import Scene
+from ..model.scene import Scene
 
 Vec3 = tuple[float, float, float]
 AUTOMATION_ENDS: tuple[str, ...] = ("fixed", "per-log")

@@ -1,7 +1,7 @@
 """One test series in simulation: set up, run, segment and measure (000 sections 3.3-4).
 
 :class:`ExperimentContext` holds what every series needs and is built once per worker
-process: the library (:class:`~motionlib.library.Library`), the crane and scene embedded in
+process: the library (:class:`~motionlib.library.store.Library`), the crane and scene embedded in
 it, the :class:`~motionlib.experiment.scenario.Scenario`, and a collision checker for the
 obstacle guard ``c_o``. The guard's scene leaves out the logs: they are what the operator
 works on, not obstacles to keep away from (the wall and the stakes are).
@@ -9,9 +9,9 @@ works on, not obstacles to keep away from (the wall and the stakes are).
 :func:`run_series` runs one operator in one mode for one series: the crane starts at rest
 over the target area (the scenario's start configuration), a :class:`SharedController` in
 the mode (default parameters, obstacle guard on), the simulated crane
-(:class:`~motionlib.sim.SimulatedCrane`, default parameters) and a
+(:class:`~motionlib.runtime.plant.SimulatedCrane`, default parameters) and a
 :class:`~motionlib.experiment.task.LoadingTask` run in
-:func:`~motionlib.sim.run_closed_loop` until every log is released and the tip has settled
+:func:`~motionlib.runtime.loop.run_closed_loop` until every log is released and the tip has settled
 (or the time limit). The 200 Hz log is then reduced in the worker to
 
 * one :class:`CycleRecord` per completed work cycle: cycle time, the four subtask times
@@ -33,16 +33,18 @@ from typing import Any
 
 import numpy as np
 
-from ..collision import CollisionChecker
-from ..controller import Mode, SharedController
 from ..errors import InputError, MotionlibError
-from ..library import Library
-from ..mixer import ObstacleGuard
-from ..runlog import RunLog
-from ..scene import Scene
-from ..selection import SelectionStatus
-from ..sim import LoopOptions, SimulatedCrane, run_closed_loop
-from ..trajectory import Trajectory
+from ..library.selection import SelectionStatus
+from ..library.store import Library
+from ..model.collision import CollisionChecker
+from ..model.scene import Scene
+from ..planning.trajectory import Trajectory
+from ..runtime.control_types import Mode
+from ..runtime.controller import SharedController
+from ..runtime.loop import LoopOptions, run_closed_loop
+from ..runtime.mixer import ObstacleGuard
+from ..runtime.plant import SimulatedCrane
+from ..runtime.runlog import RunLog
 from .measures import Signals
 from .panel import panel_operator
 from .scenario import Scenario, ScenarioOptions

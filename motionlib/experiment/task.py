@@ -1,9 +1,9 @@
 """One test series of the log-loading task as an operator of the closed loop (000 section 3.3).
 
-:class:`LoadingTask` has the operator interface of :mod:`motionlib.operators`
+:class:`LoadingTask` has the operator interface of :mod:`motionlib.runtime.operators`
 (``input(obs)`` once per control step, ``done(obs)``), so one call of
-:func:`motionlib.sim.run_closed_loop` runs a whole series. It is the operator's plan of the
-series; the hands are a :class:`~motionlib.operators.SimulatedOperator` per manual phase.
+:func:`motionlib.runtime.loop.run_closed_loop` runs a whole series. It is the operator's plan of the
+series; the hands are a :class:`~motionlib.runtime.operators.SimulatedOperator` per manual phase.
 Each work cycle (one log, in the scenario's order):
 
 1. **go out**: after the operator's reaction time, in traded and shared modes the operator
@@ -36,10 +36,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..controller import Mode, OperatorInput, SharedController
 from ..errors import InputError
-from ..operators import Observation, SimulatedOperator
-from ..trajectory import Trajectory
+from ..planning.trajectory import Trajectory
+from ..runtime.control_types import Mode, OperatorInput
+from ..runtime.controller import SharedController
+from ..runtime.operators import Observation, SimulatedOperator
 from .panel import PanelOperator, phase_seed
 from .scenario import Log, Scenario
 

@@ -1,0 +1,21 @@
+"""The crane and its world: what every later phase plans, stores and runs against.
+
+Modules
+-------
+crane_model
+    Crane model files (``cranes/<name>.yaml``): :class:`~.crane_model.CraneModel`, read strictly.
+kinematics
+    :class:`~.kinematics.Crane`: forward kinematics on arrays, closed-form inverse kinematics
+    (003 eq. 4.15), the tip Jacobian (000 eq. 1), reachability, link and grapple capsules.
+fast_kinematics
+    The same tip kinematics on plain floats, for the 200 Hz loop and the simulator.
+limits
+    Joint position, velocity, acceleration and shared-pump flow limits as objects
+    (003 eqs. 4.8-4.10), their TOPPRA constraints and the dense sample check.
+scene
+    Obstacle scenes (``obstacles/*.yaml``): obstacles, named starts, points and regions.
+collision
+    Crane-against-scene collision and distance queries with python-fcl.
+urdf
+    The crane as URDF.
+"""

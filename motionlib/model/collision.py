@@ -1,0 +1,587 @@
+"""Collision checking of a crane against an obstacle scene, with python-fcl.
+
+Geometry
+--------
+The crane is a set of capsules: the ``column``, ``boom``, ``jib`` and
+``telescope`` of :meth:`Crane.link_capsules` and the ``grapple`` (and carried
+``log``) of :meth:`Crane.grapple_capsules`. The scene's obstacles are fcl shapes
+(box, cylinder, sphere, capsule) or triangle meshes (``fcl.BVHModel``), kept in
+a broad-phase manager (``fcl.DynamicAABBTreeCollisionManager``). The ground is
+the half-space ``z < ground_z``; a capsule's lowest point is
+``min(a_z, b_z) - r``, so its ground distance is exact in closed form (fcl's
+half-space distance crashes python-fcl 0.7, so it is not used).
+
+Pairs checked
+-------------
+* boom, jib, telescope, grapple, log vs obstacles and ground;
+* column vs obstacles (it stands on the ground; it does not move, so this is
+  decided once when the checker is built);
+* grapple, log vs column and boom (self-collision; not vs the jib and telescope
+  they hang from).
+
+``margin`` inflates every crane capsule that is tested against the scene and the
+ground, and the grapple and log in the self-collision pairs (column and boom keep
+their own radius there), so the crane keeps at least ``margin`` clearance.
+
+fcl objects are built once; each query only moves them (the telescope capsule's
+length is reset when the extension changes). Endpoints come from the boom-plane
+kinematics :meth:`Crane.planar_fk` evaluated with ``math`` (one configuration)
+or numpy (many); tests compare them with :meth:`Crane.link_capsules`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import fcl
+import numpy as np
+
+from ..checks import check_points, check_scalar, check_vector
+from ..errors import InputError
+from .kinematics import Crane
+from .scene import Obstacle, Scene
+
+_MATH_OPS = SimpleNamespace(sin=math.sin, cos=math.cos, atan2=math.atan2, acos=math.acos, sqrt=math.sqrt)
+_NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.arccos, sqrt=np.sqrt)
+_BATCH = 2048  # configurations per vectorised chunk
+_COLLIDE_REQUEST = fcl.CollisionRequest()
+_DISTANCE_REQUEST = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
+
+Point = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class DistanceResult:
+    """The closest pair between the crane and the scene.
+
+    Attributes
+    ----------
+    distance : float
+        Clearance (m) between the (margin-inflated) crane and the obstacle.
+        Negative when they overlap: minus the penetration depth from fcl's
+        signed distance (EPA) for primitives and the ground; 0.0 when a mesh
+        is penetrated (fcl gives no depth for meshes). fcl's GJK/EPA are
+        iterative: expect errors up to a few 1e-5 m between rotated primitives.
+    crane_part : str
+        ``column``, ``boom``, ``jib``, ``telescope``, ``grapple`` or ``log``.
+    obstacle : str
+        Obstacle name, ``ground``, or ``column`` / ``boom`` for self-collision.
+    points : ndarray, shape (2, 3)
+        Closest point on the crane part, then on the obstacle (m, base frame).
+    """
+
+    distance: float
+    crane_part: str
+    obstacle: str
+    points: np.ndarray
+
+
+class _MovingCapsule:
+    """An fcl capsule placed on a segment ``a``-``b`` (fcl capsules lie along local z, centred)."""
+
+    __slots__ = ("name", "radius", "geometry", "obj", "length", "a", "b")
+
+    def __init__(self, name: str, radius: float):
+        self.name = name
+        self.radius = radius
+        self.length = 0.0
+        self.geometry = fcl.Capsule(radius, 0.0)
+        self.obj = fcl.CollisionObject(self.geometry, fcl.Transform())
+        self.a: Point = (0.0, 0.0, 0.0)
+        self.b: Point = (0.0, 0.0, 0.0)
+
+    def place(self, a: Point, b: Point) -> None:
+        """Move the capsule onto segment a-b (m, base frame)."""
+        self.a, self.b = a, b
+        dx, dy, dz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+        length = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if length != self.length:
+            self.geometry.lz = length
+            self.geometry.computeLocalAABB()
+            self.length = length
+        if dz < 0.0:  # a capsule is symmetric: point the axis upward, away from the -z singularity
+            dx, dy, dz = -dx, -dy, -dz
+        if length > 1e-12:
+            # shortest-arc quaternion turning local z onto d: (|d| + d_z, z x d) normalised
+            w = length + dz
+            n = math.sqrt(w * w + dx * dx + dy * dy)
+            self.obj.setQuatRotation((w / n, -dy / n, dx / n, 0.0))
+        else:
+            self.obj.setQuatRotation((1.0, 0.0, 0.0, 0.0))
+        self.obj.setTranslation(np.array(((a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5)))
+
+    def lowest(self) -> float:
+        """Lowest z of the capsule (m)."""
+        return min(self.a[2], self.b[2]) - self.radius
+
+
+def _stop_at_first_contact(o1: fcl.CollisionObject, o2: fcl.CollisionObject, data: fcl.CollisionData) -> bool:
+    if fcl.collide(o1, o2, data.request, data.result):
+        data.done = True
+    return data.done
+
+
+def obstacle_geometry(obstacle: Obstacle) -> fcl.CollisionGeometry:
+    """The fcl geometry of an obstacle in its local frame."""
+    if obstacle.shape == "box":
+        return fcl.Box(*obstacle.size)
+    if obstacle.shape == "sphere":
+        return fcl.Sphere(obstacle.radius)
+    if obstacle.shape == "cylinder":
+        return fcl.Cylinder(obstacle.radius, obstacle.length)
+    if obstacle.shape == "capsule":
+        return fcl.Capsule(obstacle.radius, obstacle.length)
+    mesh = fcl.BVHModel()
+    mesh.beginModel(len(obstacle.triangles), len(obstacle.vertices))
+    mesh.addSubModel(np.asarray(obstacle.vertices, dtype=np.float64), np.asarray(obstacle.triangles))
+    mesh.endModel()
+    return mesh
+
+
+def obstacle_object(obstacle: Obstacle) -> fcl.CollisionObject:
+    """An fcl collision object of an obstacle placed in the base frame."""
+    tf = fcl.Transform(obstacle.rotation(), np.asarray(obstacle.xyz, dtype=np.float64))
+    return fcl.CollisionObject(obstacle_geometry(obstacle), tf)
+
+
+class CollisionChecker:
+    """Collision and clearance queries of one crane in one scene.
+
+    Parameters
+    ----------
+    crane : Crane
+    scene : Scene
+    margin : float
+        Clearance (m, >= 0) the crane must keep: inflates the crane's capsules
+        (see the module docstring for which pairs).
+    """
+
+    def __init__(self, crane: Crane, scene: Scene, margin: float = 0.0):
+        if not isinstance(crane, Crane) or not isinstance(scene, Scene):
+            raise InputError(f"expected a Crane and a Scene, got {type(crane).__name__}, {type(scene).__name__}")
+        self.crane = crane
+        self.scene = scene
+        self.margin = check_scalar(margin, "margin", ge=0.0)
+        self._ground_z = float(scene.ground_z)
+        m = crane.model
+        self._planar_fk = crane.planar_fk
+        self._boom_length = m.boom_length
+        self._pivot_offset = m.boom_pivot_offset
+        self._column_height = m.column_height
+
+        # --- crane parts (radii from the crane's own capsules) ---------------
+        links = {c.name: c for c in crane.link_capsules(np.zeros(4))}
+        self._column_segment = (tuple(links["column"].a), tuple(links["column"].b))
+        self._column_radius = links["column"].radius
+        self.boom = _MovingCapsule("boom", links["boom"].radius + self.margin)
+        self.jib = _MovingCapsule("jib", links["jib"].radius + self.margin)
+        self.telescope = _MovingCapsule("telescope", links["telescope"].radius + self.margin)
+        self._boom_self = self.boom if self.margin == 0.0 else _MovingCapsule("boom", links["boom"].radius)
+        column_self = _MovingCapsule("column", self._column_radius)
+        column_self.place(*self._column_segment)
+        self._column_self = column_self
+
+        # hanging parts: endpoint offsets from the tip in the tip's heading frame (radial, across, z)
+        p_ref = np.array([1.0, 0.0, 0.0])
+        hanging = crane.grapple_capsules(p_ref, loaded=True)
+        self._hang_offsets = {c.name: (tuple(c.a - p_ref), tuple(c.b - p_ref)) for c in hanging}
+        self.grapple = _MovingCapsule("grapple", hanging[0].radius + self.margin)
+        self.log = _MovingCapsule("log", hanging[1].radius + self.margin)
+        self._hanging = {False: (self.grapple,), True: (self.grapple, self.log)}
+        self._tip_radial = 0.0  # horizontal distance (m) of the tip last placed from the slewing axis
+        # farthest horizontal reach (m) of the (inflated) hanging parts from the tip
+        self._hang_reach = {
+            loaded: max(math.hypot(o[0], o[1]) + part.radius for part in parts for o in self._hang_offsets[part.name])
+            for loaded, parts in self._hanging.items()
+        }
+
+        # --- scene ---------------------------------------------------------
+        self._obstacles = list(scene.obstacles)
+        self._obstacle_objects = [obstacle_object(o) for o in self._obstacles]
+        self._obstacle_is_mesh = [o.shape == "mesh" for o in self._obstacles]
+        boxes = np.array([o.aabb() for o in self._obstacles]).reshape(-1, 2, 3)
+        self._obstacle_lo = boxes[:, 0, :]
+        self._obstacle_hi = boxes[:, 1, :]
+        self._scene_manager = fcl.DynamicAABBTreeCollisionManager()
+        self._scene_manager.registerObjects(self._obstacle_objects)
+        self._scene_manager.setup()
+
+        self._arm_parts = {
+            False: (self.boom, self.jib, self.telescope, self.grapple),
+            True: (self.boom, self.jib, self.telescope, self.grapple, self.log),
+        }
+        self._arm_managers = {k: self._manager(v) for k, v in self._arm_parts.items()}
+        self._tip_managers = {k: self._manager(v) for k, v in self._hanging.items()}
+
+        # --- the column does not move: decide column vs obstacles once ---------
+        column = _MovingCapsule("column", self._column_radius + self.margin)
+        column.place(*self._column_segment)
+        self._column_distance = self._closest_to_obstacles((column,), None)
+        #: Clearance of the (inflated) column from the obstacles: the same for every configuration.
+        self.column_clearance: DistanceResult = _result(self._column_distance)
+        #: True when an obstacle touches the column: then every configuration is in collision.
+        self.column_blocked: bool = self.column_clearance.distance <= 0.0
+
+    @staticmethod
+    def _manager(parts: tuple[_MovingCapsule, ...]) -> fcl.DynamicAABBTreeCollisionManager:
+        manager = fcl.DynamicAABBTreeCollisionManager()
+        manager.registerObjects([p.obj for p in parts])
+        manager.setup()
+        return manager
+
+    # ================================================================ geometry
+    def _arm_points(self, q1: Any, q2: Any, q3: Any, q4: Any, ops: Any) -> tuple:
+        """Boom pivot, jib pivot, jib end and tip (base frame, m) as (x, y, z) triples.
+
+        Scalars with ``ops = _MATH_OPS``, arrays (n,) with ``_NUMPY_OPS``.
+        In the boom plane the jib end is the tip with the telescope retracted.
+        """
+        c1, s1 = ops.cos(q1), ops.sin(q1)
+        off, height, boom = self._pivot_offset, self._column_height, self._boom_length
+        rho_e, zeta_e = self._planar_fk(q2, q3, 0.0 * q4, ops)
+        rho_t, zeta_t = self._planar_fk(q2, q3, q4, ops)
+        r_j = off + boom * ops.cos(q2)
+        r_e = off + rho_e
+        r_t = off + rho_t
+        pivot = (off * c1, off * s1, height + 0.0 * q1)
+        jib_pivot = (r_j * c1, r_j * s1, height + boom * ops.sin(q2))
+        jib_end = (r_e * c1, r_e * s1, height + zeta_e)
+        tip = (r_t * c1, r_t * s1, height + zeta_t)
+        return pivot, jib_pivot, jib_end, tip
+
+    def _hang(self, part: _MovingCapsule, x: Any, y: Any, z: Any, ux: Any, uy: Any) -> tuple[tuple, tuple]:
+        """Endpoints of a hanging part at tip (x, y, z) with unit heading (ux, uy)."""
+        out = []
+        for r, c, h in self._hang_offsets[part.name]:
+            out.append((x + r * ux - c * uy, y + r * uy + c * ux, z + h))
+        return out[0], out[1]
+
+    @staticmethod
+    def _heading(x: float, y: float) -> tuple[float, float]:
+        radial = math.hypot(x, y)
+        if radial > 0.0:
+            return x / radial, y / radial
+        return 1.0, 0.0  # atan2(0, 0) = 0, as in Crane.grapple_capsules
+
+    def _place_arm(self, q1: float, q2: float, q3: float, q4: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
+        pivot, jib_pivot, jib_end, tip = self._arm_points(q1, q2, q3, q4, _MATH_OPS)
+        self.boom.place(pivot, jib_pivot)
+        self.jib.place(jib_pivot, jib_end)
+        self.telescope.place(jib_end, tip)
+        self._place_hanging(*tip, loaded)
+        return self._arm_parts[loaded]
+
+    def _place_hanging(self, x: float, y: float, z: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
+        self._tip_radial = math.hypot(x, y)
+        ux, uy = self._heading(x, y)
+        parts = self._hanging[loaded]
+        for part in parts:
+            part.place(*self._hang(part, x, y, z, ux, uy))
+        return parts
+
+    # ================================================================ checks
+    def in_collision(self, q: Any, loaded: bool = False) -> bool:
+        """True when configuration ``q`` (4,) (rad, rad, rad, m) collides (see module docstring)."""
+        return self._collides(*_joint_values(q), bool(loaded))
+
+    def _collides(self, q1: float, q2: float, q3: float, q4: float, loaded: bool) -> bool:
+        if self.column_blocked:
+            return True
+        parts = self._place_arm(q1, q2, q3, q4, loaded)
+        if self._below_ground(parts) or self._hanging_hits_column(loaded):
+            return True
+        boom_self = self._boom_self
+        if boom_self is not self.boom:
+            boom_self.place(self.boom.a, self.boom.b)
+        for part in self._hanging[loaded]:
+            if fcl.collide(part.obj, boom_self.obj, _COLLIDE_REQUEST):
+                return True
+        return self._hits_scene(self._arm_managers[loaded])
+
+    def _below_ground(self, parts: tuple[_MovingCapsule, ...]) -> bool:
+        ground = self._ground_z
+        for part in parts:  # a plain loop: this is the planner's hot path
+            if part.lowest() < ground:
+                return True
+        return False
+
+    def _hits_scene(self, manager: fcl.DynamicAABBTreeCollisionManager) -> bool:
+        """Whether the placed parts of ``manager`` touch an obstacle (broad phase, first contact)."""
+        if not self._obstacles:
+            return False
+        manager.update()
+        data = fcl.CollisionData()
+        self._scene_manager.collide(manager, data, _stop_at_first_contact)
+        return data.result.is_collision
+
+    def _hanging_hits_column(self, loaded: bool) -> bool:
+        if self._tip_radial > self._hang_reach[loaded] + self._column_radius:
+            return False  # cheap bound: the tip is too far from the slewing axis for a hanging part to reach it
+        column = self._column_self.obj
+        return any(fcl.collide(part.obj, column, _COLLIDE_REQUEST) for part in self._hanging[loaded])
+
+    def tip_in_collision(self, p_tip: Any, loaded: bool = False) -> bool:
+        """True when the grapple (and log) hanging at ``p_tip`` (3,) (m) hits the scene, ground or column.
+
+        The planner's tip-state validity: the rest of the crane is not checked.
+        """
+        x, y, z = _point_values(p_tip)
+        loaded = bool(loaded)
+        parts = self._place_hanging(x, y, z, loaded)
+        if self._below_ground(parts) or self._hanging_hits_column(loaded):
+            return True
+        return self._hits_scene(self._tip_managers[loaded])
+
+    def configurations_in_collision(self, q: Any, loaded: bool = False) -> np.ndarray:
+        """Collision flags of many configurations.
+
+        Parameters
+        ----------
+        q : array_like, shape (n, 4)
+            Configurations (rad, rad, rad, m).
+        loaded : bool
+            A log is carried.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            Same as :meth:`in_collision` row by row; a vectorised bounding-box
+            test decides the configurations far from everything.
+        """
+        qs = check_points(q, "q", dim=4)
+        return self._batch(qs, bool(loaded), stop_at_first=False)
+
+    def segment_in_collision(self, q_a: Any, q_b: Any, loaded: bool = False, tip_resolution: float = 0.01) -> bool:
+        """True when the joint-space straight segment ``q_a`` -> ``q_b`` collides.
+
+        The configurations checked are :func:`segment_configurations`: the tip
+        moves at most ``tip_resolution`` (m) between two of them.
+        """
+        qs = segment_configurations(self.crane, q_a, q_b, tip_resolution)
+        return bool(self._batch(qs, bool(loaded), stop_at_first=True).any())
+
+    def _batch(self, qs: np.ndarray, loaded: bool, stop_at_first: bool) -> np.ndarray:
+        out = np.zeros(qs.shape[0], dtype=bool)
+        if self.column_blocked:
+            out[:] = True
+            return out
+        for start in range(0, qs.shape[0], _BATCH):
+            chunk = qs[start : start + _BATCH]
+            hit, maybe = self._batch_screen(chunk, loaded)
+            out[start : start + chunk.shape[0]] = hit
+            if stop_at_first and hit.any():
+                return out
+            for i in np.flatnonzero(maybe & ~hit):
+                if self._collides(*chunk[i].tolist(), loaded):
+                    out[start + i] = True
+                    if stop_at_first:
+                        return out
+        return out
+
+    def _batch_screen(self, qs: np.ndarray, loaded: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Vectorised ground test (exact) and bounding-box screen for (n, 4) configurations.
+
+        Returns ``hit`` (n,): touches the ground; ``maybe`` (n,): some crane part's
+        box overlaps an obstacle's box, or a hanging part's box overlaps the
+        column's or the boom's, so fcl must decide.
+        """
+        n = qs.shape[0]
+        pivot, jib_pivot, jib_end, tip = (
+            np.stack(np.broadcast_arrays(*p), axis=1) for p in self._arm_points(*qs.T, _NUMPY_OPS)
+        )
+        ux, uy = self._heading_batch(tip)
+        segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
+        hanging = []
+        for part in self._hanging[loaded]:
+            a, b = (np.stack(e, axis=1) for e in self._hang(part, tip[:, 0], tip[:, 1], tip[:, 2], ux, uy))
+            hanging.append((part, a, b))
+        boxes = {}
+        hit = np.zeros(n, dtype=bool)
+        for part, a, b in segments + hanging:
+            lo = np.minimum(a, b) - part.radius
+            hi = np.maximum(a, b) + part.radius
+            boxes[part.name] = (lo, hi)
+            hit |= lo[:, 2] < self._ground_z
+        maybe = np.zeros(n, dtype=bool)
+        if self._obstacles:
+            for lo, hi in boxes.values():
+                overlap = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
+                maybe |= overlap.all(axis=2).any(axis=1)
+        col_a, col_b = self._column_segment
+        col_lo = np.minimum(col_a, col_b) - self._column_radius
+        col_hi = np.maximum(col_a, col_b) + self._column_radius
+        boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
+        boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
+        for part, _, _ in hanging:
+            lo, hi = boxes[part.name]
+            maybe |= np.all((lo <= col_hi) & (hi >= col_lo), axis=1)
+            maybe |= np.all((lo <= boom_hi) & (hi >= boom_lo), axis=1)
+        return hit, maybe
+
+    @staticmethod
+    def _heading_batch(tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        radial = np.hypot(tip[:, 0], tip[:, 1])
+        safe = np.where(radial > 0.0, radial, 1.0)
+        return np.where(radial > 0.0, tip[:, 0] / safe, 1.0), np.where(radial > 0.0, tip[:, 1] / safe, 0.0)
+
+    # ================================================================ distances
+    def distance(self, q: Any, loaded: bool = False) -> DistanceResult:
+        """The closest pair between the crane at ``q`` (4,) and the scene, ground or itself.
+
+        Pairs as in :meth:`in_collision`, except the column vs the obstacles: that
+        pair does not depend on ``q``, it is :attr:`column_clearance`, and enters
+        only when it is in collision. So ``distance <= 0`` exactly when
+        :meth:`in_collision` is True (up to fcl's tolerance at contact).
+        """
+        q1, q2, q3, q4 = _joint_values(q)
+        loaded = bool(loaded)
+        parts = self._place_arm(q1, q2, q3, q4, loaded)
+        boom_self = self._boom_self
+        if boom_self is not self.boom:
+            boom_self.place(self.boom.a, self.boom.b)
+        best = self._column_distance if self.column_blocked else None
+        best = _better(best, self._ground_distance(parts))
+        for part in self._hanging[loaded]:
+            for other in (self._column_self, boom_self):
+                best = _better(best, _pair_distance(part, other.obj, other.name, False))
+        best = _better(best, self._closest_to_obstacles(parts, best))
+        return _result(best)
+
+    def tip_clearance(self, p_tip: Any, loaded: bool = False) -> float:
+        """Clearance (m) of the grapple (and log) hanging at ``p_tip`` (3,) from the scene, ground and column.
+
+        Negative when they overlap (see :class:`DistanceResult`).
+        """
+        return float(self._tip_closest(p_tip, loaded)[0])
+
+    def tip_distance(self, p_tip: Any, loaded: bool = False) -> DistanceResult:
+        """The closest pair behind :meth:`tip_clearance`."""
+        return _result(self._tip_closest(p_tip, loaded))
+
+    def _tip_closest(self, p_tip: Any, loaded: bool) -> tuple:
+        x, y, z = _point_values(p_tip)
+        loaded = bool(loaded)
+        parts = self._place_hanging(x, y, z, loaded)
+        best = self._ground_distance(parts)
+        for part in parts:
+            best = _better(best, _pair_distance(part, self._column_self.obj, "column", False))
+        return _better(best, self._closest_to_obstacles(parts, best))
+
+    def _ground_distance(self, parts: tuple[_MovingCapsule, ...]) -> tuple:
+        best = None
+        for part in parts:
+            low = part.a if part.a[2] <= part.b[2] else part.b
+            d = low[2] - part.radius - self._ground_z
+            if best is None or d < best[0]:
+                points = np.array([[low[0], low[1], low[2] - part.radius], [low[0], low[1], self._ground_z]])
+                best = (d, part.name, "ground", points)
+        return best
+
+    def _closest_to_obstacles(self, parts: tuple[_MovingCapsule, ...], best: tuple | None) -> tuple | None:
+        """Closest (part, obstacle) pair, visiting pairs by increasing bounding-box distance."""
+        if not self._obstacles:
+            return None
+        found = None
+        bounds = []
+        for part in parts:
+            lo = np.minimum(part.a, part.b) - part.radius
+            hi = np.maximum(part.a, part.b) + part.radius
+            gap = np.maximum(0.0, np.maximum(self._obstacle_lo - hi, lo - self._obstacle_hi))
+            bounds.append(np.sqrt((gap * gap).sum(axis=1)))
+        bounds = np.array(bounds)
+        order = np.argsort(bounds, axis=None)
+        limit = best[0] if best is not None else math.inf
+        for flat in order:
+            k, j = divmod(int(flat), len(self._obstacles))
+            if bounds[k, j] >= limit:
+                break
+            cand = _pair_distance(
+                parts[k], self._obstacle_objects[j], self._obstacles[j].name, self._obstacle_is_mesh[j]
+            )
+            if cand[0] < limit:
+                found, limit = cand, cand[0]
+        return found
+
+
+# ==================================================================== helpers
+def _pair_distance(part: _MovingCapsule, other: fcl.CollisionObject, other_name: str, is_mesh: bool) -> tuple:
+    result = fcl.DistanceResult()
+    d = fcl.distance(part.obj, other, _DISTANCE_REQUEST, result)
+    p_part, p_other = result.nearest_points
+    if is_mesh:  # python-fcl 0.7 reports mesh-vs-shape nearest points mesh first, and no depth
+        p_part, p_other = p_other, p_part
+        d = max(d, 0.0)
+    return (float(d), part.name, other_name, np.array([p_part, p_other], dtype=np.float64))
+
+
+def _better(best: tuple | None, cand: tuple | None) -> tuple | None:
+    if cand is None:
+        return best
+    if best is None or cand[0] < best[0]:
+        return cand
+    return best
+
+
+def _result(best: tuple | None) -> DistanceResult:
+    if best is None:
+        return DistanceResult(math.inf, "", "", np.full((2, 3), np.nan))
+    return DistanceResult(float(best[0]), best[1], best[2], best[3])
+
+
+def _joint_values(q: Any) -> tuple[float, float, float, float]:
+    if type(q) is np.ndarray and q.shape == (4,) and q.dtype == np.float64:
+        values = q.tolist()
+        if all(map(math.isfinite, values)):
+            return tuple(values)
+    return tuple(check_vector(q, 4, "q").tolist())
+
+
+def _point_values(p: Any) -> tuple[float, float, float]:
+    if type(p) is np.ndarray and p.shape == (3,) and p.dtype == np.float64:
+        values = p.tolist()
+        if all(map(math.isfinite, values)):
+            return tuple(values)
+    return tuple(check_vector(p, 3, "p_tip").tolist())
+
+
+def segment_lipschitz(crane: Crane, q_a: np.ndarray, q_b: np.ndarray) -> float:
+    """Upper bound (m) on the tip's path length along the joint segment q_a -> q_b.
+
+    With ``q(s) = q_a + s (q_b - q_a)``, ``dp/ds = J(q(s)) (q_b - q_a)`` and
+    ``|J e_i|`` is bounded by the lever arm of joint i (000 eq. 1): slew, the
+    tip's distance from the slewing axis ``<= offset + boom + ell``; boom, the
+    tip's distance from the boom pivot ``<= boom + ell``; jib, ``ell``;
+    telescope, 1. ``ell = hypot(jib + q4, d)`` at the larger extension.
+    """
+    m = crane.model
+    ell = math.hypot(m.jib_length + max(q_a[3], q_b[3]), m.telescope_offset)
+    levers = np.array([m.boom_pivot_offset + m.boom_length + ell, m.boom_length + ell, ell, 1.0])
+    return float(levers @ np.abs(q_b - q_a))
+
+
+def segment_configurations(crane: Crane, q_a: Any, q_b: Any, tip_resolution: float = 0.01) -> np.ndarray:
+    """Configurations along the joint segment q_a -> q_b, the tip moving <= ``tip_resolution`` between them.
+
+    Parameters
+    ----------
+    crane : Crane
+    q_a, q_b : array_like, shape (4,)
+        End configurations (rad, rad, rad, m).
+    tip_resolution : float
+        Largest tip displacement (m) between consecutive configurations.
+
+    Returns
+    -------
+    ndarray, shape (k + 1, 4)
+        Evenly spaced, both ends included, ``k = ceil(L / tip_resolution)`` with
+        ``L`` the bound of :func:`segment_lipschitz`.
+    """
+    q_a = check_vector(q_a, 4, "q_a")
+    q_b = check_vector(q_b, 4, "q_b")
+    res = check_scalar(tip_resolution, "tip_resolution", gt=0.0)
+    steps = max(1, math.ceil(segment_lipschitz(crane, q_a, q_b) / res))
+    s = np.linspace(0.0, 1.0, steps + 1)[:, None]
+    return q_a + s * (q_b - q_a)

@@ -1,0 +1,29 @@
+"""Runtime: the 200 Hz shared-control loop and the simulated crane it runs against.
+
+Modules
+-------
+control_types
+    Modes M1-M6, flags, authority, measured state, operator input, status, parameters, events.
+controller
+    :class:`~.controller.SharedController`: one ``step(state, inputs) -> qd_cmd`` (000 section 2).
+sources
+    Input sources of the summing junction (001 Fig. 1): joysticks, path tracker, position source.
+tracker
+    Path tracking with nearest point and look-ahead (000 eq. 3).
+mixer
+    The shared-control mixer ``p_s = c_a p_a + c_o p_o`` with weak zones (000 eqs. 4-5).
+resolved_rate
+    Weighted, damped pseudo-inverse with null-space term (000 eq. 2, 001 eq. 7).
+operators
+    Simulated operators: passive, scripted (CSV), novice and expert models.
+plant
+    :class:`~.plant.SimulatedCrane`: hydraulic joints and the swinging grapple.
+loop
+    :func:`~.loop.run_closed_loop`: controller + plant + operator at the control rate.
+runlog
+    The 200 Hz run log and its HDF5 file.
+metrics
+    Smoothness (total jerk, 000 eq. 6), path deviation and the run summary.
+execute
+    :func:`~.execute.execute`: one call that sets all of the above up and runs it.
+"""

@@ -1,0 +1,244 @@
+"""The controller's interface types: modes, flags, authority, measured state, operator input,
+status, parameters and events (000 section 3.3; 001 section 2).
+
+Plain data shared by the controller, the sources, the simulated crane, the operator models
+and the run log.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..checks import check_scalar, check_vector
+from ..errors import InputError
+from ..model.fast_kinematics import Vec3, Vec4
+
+_ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
+_ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+class Mode(enum.Enum):
+    """Operating modes of 000 section 3.3."""
+
+    M1 = "M1"  # manual joint operation
+    M2 = "M2"  # traded control alternating with manual joint operation
+    M3 = "M3"  # shared control with manual joint operation
+    M4 = "M4"  # manual Cartesian operation
+    M5 = "M5"  # traded control alternating with manual Cartesian operation
+    M6 = "M6"  # shared control with manual Cartesian operation
+
+    @property
+    def joint_operation(self) -> bool:
+        """True for M1-M3 (the operator drives joints), False for M4-M6 (Cartesian)."""
+        return self in (Mode.M1, Mode.M2, Mode.M3)
+
+    @property
+    def authority(self) -> str:
+        """``manual``, ``traded`` or ``shared``."""
+        return {"M1": "manual", "M4": "manual", "M2": "traded", "M5": "traded"}.get(self.value, "shared")
+
+    @classmethod
+    def parse(cls, value: str | Mode) -> Mode:
+        """A mode from ``"M1"``..``"M6"`` (case-insensitive) or a Mode."""
+        if isinstance(value, Mode):
+            return value
+        try:
+            return cls(str(value).upper())
+        except ValueError as exc:
+            raise InputError(f"mode: expected one of M1..M6, got {value!r}") from exc
+
+
+class Flag(enum.IntFlag):
+    """Per-step condition flags (bit mask, logged)."""
+
+    NONE = 0
+    NONFINITE_INPUT = 1  # a stick axis was NaN or inf: treated as 0
+    OUT_OF_RANGE_INPUT = 2  # a stick axis was outside [-1, 1]: clipped
+    STALE_INPUT = 4  # input older than stale_after_s (or none): stopping
+    BAD_STATE = 8  # the measured state was not finite: stopping
+    VELOCITY_LIMITED = 16  # target scaled down to the velocity limits
+    ACCELERATION_LIMITED = 32  # change scaled down to the acceleration limits
+    POSITION_LIMITED = 64  # a joint slowed before its position limit
+    OBSTACLE_GUARD = 128  # operator velocity toward an obstacle scaled down (c_o < 1)
+    DAMPED = 256  # resolved rate damped near a singularity
+
+
+class Authority(enum.IntEnum):
+    """Who commands the crane in a step (logged as an integer)."""
+
+    MANUAL = 0  # operator only (no automated motion, or after arrival / abort / handover)
+    TRADED = 1  # automated motion running, operator ignored
+    SHARED = 2  # automated motion running, mixed with the operator (000 eq. 4)
+    STOPPED = 3  # stale input or bad state: stopping
+
+
+class CraneState:
+    """Measured crane state at time ``t`` (a plain slotted object: cheap to build every step).
+
+    Attributes
+    ----------
+    t : float
+        Time (s) of the measurement.
+    q : sequence of 4 float
+        Joint positions (rad, rad, rad, m).
+    qd : sequence of 4 float
+        Joint velocities (rad/s, rad/s, rad/s, m/s).
+    """
+
+    __slots__ = ("t", "q", "qd")
+
+    def __init__(self, t: float, q: Sequence[float], qd: Sequence[float]):
+        self.t = t
+        self.q = q
+        self.qd = qd
+
+    def __repr__(self) -> str:
+        return f"CraneState(t={self.t!r}, q={tuple(self.q)!r}, qd={tuple(self.qd)!r})"
+
+
+class OperatorInput:
+    """One sample of the operator's input devices (a plain slotted object).
+
+    Attributes
+    ----------
+    t : float
+        Time (s) the sample was taken; older than ``stale_after_s`` at the step means stale.
+    axes : sequence of 4 float
+        Stick axes ``(left_x, left_y, right_x, right_y)``, nominally in [-1, 1] (see
+        :mod:`motionlib.runtime.sources`). Anything else is handled by the controller (flagged).
+    abort : bool
+        The abort button (ends an automated motion; control becomes manual).
+    """
+
+    __slots__ = ("t", "axes", "abort")
+
+    def __init__(self, t: float, axes: Sequence[float] = (0.0, 0.0, 0.0, 0.0), abort: bool = False):
+        self.t = t
+        self.axes = axes
+        self.abort = abort
+
+    def __repr__(self) -> str:
+        return f"OperatorInput(t={self.t!r}, axes={tuple(self.axes)!r}, abort={self.abort!r})"
+
+
+@dataclass
+class ControllerStatus:
+    """Diagnostics of the last step (updated in place).
+
+    Attributes
+    ----------
+    t : float
+    authority : Authority
+    c_a, c_o : float
+        Mixing coefficients (000 eq. 4); ``c_a`` is 1 in traded automation, 0 in manual.
+    s_p, deviation_m : float
+        Tracker's nearest arc length (m) and distance from the path (m); NaN without a motion.
+    p_tip : tuple of 3 float
+        Tip position (m) computed from the measured state.
+    speed_o : float
+        Operator tip speed ``|p_o|`` (m/s).
+    flags : int
+        :class:`Flag` bits.
+    sigma_min : float
+        Smallest singular value of ``J W^1/2`` (resolved-rate steps only, else NaN).
+    qd_cmd : tuple of 4 float
+        The command returned by the step.
+    """
+
+    t: float = 0.0
+    authority: Authority = Authority.MANUAL
+    c_a: float = 0.0
+    c_o: float = 1.0
+    s_p: float = math.nan
+    deviation_m: float = math.nan
+    p_tip: Vec3 = _ZERO3
+    speed_o: float = 0.0
+    flags: int = 0
+    sigma_min: float = math.nan
+    qd_cmd: Vec4 = _ZERO4
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """Parameters of :class:`SharedController`.
+
+    Attributes
+    ----------
+    dt_s : float
+        Control period (s); 200 Hz.
+    stale_after_s : float
+        Input older than this (s) stops the crane.
+    weights : tuple of 4 float or None
+        Nominal resolved-rate weights; None: ``min(|qd_min|, qd_max)^2`` per joint.
+    limit_weight_margin : float
+        Joint-limit weight fade width, fraction of each joint's range
+        (:func:`~motionlib.runtime.resolved_rate.joint_limit_weights`).
+    limit_weight_floor : float
+        Weight factor at a position limit.
+    sigma_threshold, damping_max : float
+        Damping law of :func:`~motionlib.runtime.resolved_rate.weighted_pinv`.
+    operator_weight_raise, operator_weight_lower : float
+        Joint operation: weight factors of the joints the operator moves / does not move.
+    operator_activity_axis : float
+        Fraction of a joint's speed at which it counts as fully moved by the operator.
+    centering_gain_per_s : float
+        Null-space gain toward the joint-range centres when no automation reference is active.
+    limit_margin_frac : float
+        Joints stop this fraction of their range before a position limit.
+    brake_decel_frac : float
+        Braking deceleration before a position limit as a fraction of ``qdd_max``.
+    lag_s : float
+        Look-ahead (s) of the position-limit braking: the joint's position is predicted this far
+        ahead with its measured velocity (the valve lag of the actuators).
+    """
+
+    dt_s: float = 0.005
+    stale_after_s: float = 0.1
+    weights: tuple[float, float, float, float] | None = None
+    limit_weight_margin: float = 0.15
+    limit_weight_floor: float = 1e-3
+    sigma_threshold: float = 0.05
+    damping_max: float = 0.05
+    operator_weight_raise: float = 10.0
+    operator_weight_lower: float = 0.1
+    operator_activity_axis: float = 0.2
+    centering_gain_per_s: float = 0.0
+    limit_margin_frac: float = 0.01
+    brake_decel_frac: float = 0.5
+    lag_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("dt_s", "stale_after_s", "limit_weight_margin", "limit_weight_floor", "sigma_threshold",
+                     "operator_weight_raise", "operator_weight_lower", "operator_activity_axis"):
+            check_scalar(getattr(self, name), name, gt=0.0)
+        for name in ("damping_max", "centering_gain_per_s", "limit_margin_frac", "lag_s"):
+            check_scalar(getattr(self, name), name, ge=0.0)
+        check_scalar(self.brake_decel_frac, "brake_decel_frac", gt=0.0, le=1.0)
+        if self.weights is not None:
+            w = check_vector(self.weights, 4, "weights")
+            if not np.all(w > 0.0):
+                raise InputError(f"weights: expected positive numbers, got {w.tolist()}")
+
+
+@dataclass
+class Event:
+    """A discrete event of the run (logged).
+
+    Attributes
+    ----------
+    t : float
+        Time (s).
+    name : str
+        ``motion_start``, ``arrival``, ``abort``, ``handover``, ``stale``, ``fresh``,
+        ``nonfinite_input``, ``bad_state``.
+    detail : str
+    """
+
+    t: float
+    name: str
+    detail: str = ""

@@ -1,0 +1,647 @@
+"""The shared controller: one ``step(state, inputs) -> joint velocity command`` (000 section 2, 001 section 2).
+
+:class:`SharedController` holds everything that runs in the 200 Hz control loop and nothing
+that simulates: a real machine's loop can drive the same object with measured joint
+states and joystick samples. One step:
+
+1. **Inputs**: a non-finite stick axis is treated as 0 and flagged (``NONFINITE_INPUT``),
+   an axis outside [-1, 1] is clipped and flagged (``OUT_OF_RANGE_INPUT``); input older than
+   ``stale_after_s`` (0.1 s) stops the crane (``STALE_INPUT``: target velocity 0 for every
+   joint, automation included, reached within the acceleration limits).
+2. **Sources** (:mod:`motionlib.runtime.sources`, 001 Fig. 1): the enabled operator sources give
+   ``p_o`` (Cartesian operation) or joint rates ``qd_o`` (joint operation, mapped to
+   ``p_o = J qd_o``, 000 eq. 1); the enabled automation sources (path tracker, position
+   controller) give ``p_a`` and a null-space reference ``z``.
+3. **Mode** (000 section 3.3): M1 manual joint, M2 traded + joint, M3 shared + joint,
+   M4 manual Cartesian, M5 traded + Cartesian, M6 shared + Cartesian. *Traded*: the
+   operator has no effect while the automated motion runs; it ends on arrival or when the
+   operator presses abort, then control is manual. *Shared*: ``p_s = c_a p_a + c_o p_o``
+   (000 eq. 4, :mod:`motionlib.runtime.mixer`), with handover to manual in weak zones.
+4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
+   i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
+   weights of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`, SVD-equivalent damping
+   near singularities, null-space term), evaluated here in closed form on plain floats
+   (the smallest eigenvalue of the 3 x 3 ``J W J^T`` gives ``sigma_min``) because numpy's
+   per-call overhead alone exceeds the step budget; ``tests/test_controller.py`` checks it
+   against ``resolve_rate``. Nominal weights ``w_i = qd_lim_i^2`` make the minimised
+   ``qd^T W^-1 qd`` the sum of squared fractions of each joint's speed. In joint operation
+   the weights of the joints the operator moves are raised (``operator_weight_raise``) and
+   the others lowered (``operator_weight_lower``) (000 section 2.4, last paragraph).
+5. **Limits**: the target is scaled uniformly (direction kept) into the direction-dependent
+   velocity limits; each joint is bounded by its braking curve ``sqrt(2 a_b d)`` before its
+   position limit (``d`` the distance to ``limit - margin``, predicted ``lag_s`` ahead,
+   ``a_b = brake_decel_frac * qdd_max``); the change from the previous command is scaled
+   uniformly so that no joint exceeds ``qdd_max``; a joint over its braking curve then
+   brakes at up to ``qdd_max`` on its own. The command is always finite.
+
+Flags and events are in :attr:`SharedController.status` and :attr:`SharedController.events`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..model.fast_kinematics import TipKinematics, Vec3, Vec4
+from ..model.kinematics import Crane
+from ..planning.trajectory import Trajectory
+from .control_types import (
+    Authority,
+    ControllerParams,
+    ControllerStatus,
+    CraneState,
+    Event,
+    Flag,
+    Mode,
+    OperatorInput,
+)
+from .mixer import Mixer, MixerParams, ObstacleGuard
+from .resolved_rate import resolve_rate_fast
+from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
+from .tracker import PathTracker, TrackerParams
+
+_ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
+_ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+_NONFINITE, _RANGE, _STALE, _BAD_STATE = int(Flag.NONFINITE_INPUT), int(Flag.OUT_OF_RANGE_INPUT), 4, 8
+_VEL, _ACC, _POS, _GUARD, _DAMPED = 16, 32, 64, 128, 256
+_MANUAL, _TRADED, _SHARED, _STOPPED = Authority.MANUAL, Authority.TRADED, Authority.SHARED, Authority.STOPPED
+
+
+class SharedController:
+    """Shared controller of one crane (see the module docstring).
+
+    Parameters
+    ----------
+    crane : Crane
+    mode : Mode or str
+        ``M1`` .. ``M6``.
+    params : ControllerParams, optional
+    mixer_params : MixerParams, optional
+    tracker_params : TrackerParams, optional
+    obstacle_guard : ObstacleGuard, optional
+        ``c_o`` of the mixer; None: no guard (``c_o = 1``).
+    joystick : RateSource, optional
+        The operator source; default a :class:`CartesianJoystick` (M4-M6) with gains
+        ``v_operator_max_m_s`` or a :class:`JointJoystick` (M1-M3) with the joints' speeds.
+
+    Attributes
+    ----------
+    status : ControllerStatus
+        Diagnostics of the last step.
+    events : list of Event
+        Every event so far.
+    sources : list of RateSource
+        The summing junction's inputs, in order.
+    """
+
+    def __init__(
+        self,
+        crane: Crane,
+        mode: Mode | str = Mode.M6,
+        params: ControllerParams | None = None,
+        mixer_params: MixerParams | None = None,
+        tracker_params: TrackerParams | None = None,
+        obstacle_guard: ObstacleGuard | None = None,
+        joystick: RateSource | None = None,
+    ):
+        if not isinstance(crane, Crane):
+            raise InputError(f"crane: expected a Crane, got {type(crane).__name__}")
+        self.crane = crane
+        self.mode = Mode.parse(mode)
+        self.params = params or ControllerParams()
+        self.mixer = Mixer(mixer_params)
+        self.tracker_params = tracker_params or TrackerParams()
+        self.guard = obstacle_guard
+        self.kin = TipKinematics(crane)
+        prm = self.params
+        speed = np.minimum(-crane.qd_min, crane.qd_max)
+        self._w_nom = tuple(prm.weights if prm.weights is not None else (speed**2).tolist())
+        span = crane.q_max - crane.q_min
+        margin = prm.limit_margin_frac * span
+        two_ab = 2.0 * prm.brake_decel_frac * crane.qdd_max
+        self._q_lo = tuple((crane.q_min + margin).tolist())  # stop targets inside the position limits
+        self._q_hi = tuple((crane.q_max - margin).tolist())
+        self._v_lo = tuple(crane.qd_min.tolist())
+        self._v_hi = tuple(crane.qd_max.tolist())
+        self._dv_cap = tuple((crane.qdd_max * prm.dt_s).tolist())  # largest change of the command per step
+        self._two_a_brake = tuple(two_ab.tolist())
+        self._far_hi = tuple((crane.qd_max**2 / two_ab).tolist())  # beyond: the braking curve does not bind
+        self._far_lo = tuple((crane.qd_min**2 / two_ab).tolist())
+        # positions (predicted) between these are beyond every braking curve: the position limits do not bind
+        self._near_lo = tuple((crane.q_min + margin + crane.qd_min**2 / two_ab).tolist())
+        self._near_hi = tuple((crane.q_max - margin - crane.qd_max**2 / two_ab).tolist())
+        # positions between these have the nominal resolved-rate weights (outside the joint-limit fade)
+        self._w_free_lo = tuple((crane.q_min + prm.limit_weight_margin * span).tolist())
+        self._w_free_hi = tuple((crane.q_max - prm.limit_weight_margin * span).tolist())
+        self._lag = float(prm.lag_s)
+        self._w_lo = tuple(crane.q_min.tolist())
+        self._w_hi = tuple(crane.q_max.tolist())
+        self._w_width = tuple((prm.limit_weight_margin * span).tolist())
+        self._mid = tuple((0.5 * (crane.q_min + crane.q_max)).tolist())
+        self._activity_rate = tuple((prm.operator_activity_axis * speed).tolist())
+        self._inv_span2 = tuple((1.0 / span**2).tolist())
+        if joystick is None:
+            if self.mode.joint_operation:
+                joystick = JointJoystick(speed.tolist())
+            else:
+                v = self.mixer.params.v_operator_max_m_s
+                joystick = CartesianJoystick((v, v, v))
+        if joystick.role != "operator":
+            raise InputError(f"joystick: expected an operator source, got role {joystick.role!r}")
+        self.joystick = joystick
+        self.sources: list[RateSource] = [joystick]
+        self._operator_sources: list[RateSource] = [joystick]
+        self._automation_sources: list[RateSource] = []
+        self._traded = self.mode.authority == "traded"
+        self._joint_operation = self.mode.joint_operation
+        self.tracker: PathTracker | None = None
+        self._motion: RateSource | None = None
+        self.status = ControllerStatus()
+        self.events: list[Event] = []
+        self._ctx = StepContext()
+        self._ctx.dt = prm.dt_s
+        self._prev: Vec4 = _ZERO4
+        self._started = False
+        self._auto_active = False
+        self._motion_end: Vec3 | None = None
+        self._stale = False
+        self._nonfinite = False
+
+    # ------------------------------------------------------------ configuration
+    def add_source(self, source: RateSource) -> None:
+        """Plug a new input source into the summing junction (001 Fig. 1)."""
+        if not isinstance(source, RateSource):
+            raise InputError(f"source: expected a RateSource, got {type(source).__name__}")
+        if any(s.name == source.name for s in self.sources):
+            raise InputError(f"source: a source named {source.name!r} is already connected")
+        if source.role not in ("operator", "automation") or source.space not in ("cartesian", "joint"):
+            raise InputError(f"source: unknown role {source.role!r} or space {source.space!r}")
+        if source.role == "automation" and source.space != "cartesian":
+            raise InputError("source: automation sources give Cartesian rates")
+        self.sources.append(source)
+        self._sort_sources()
+
+    def _sort_sources(self) -> None:
+        self._operator_sources = [s for s in self.sources if s.role == "operator"]
+        self._automation_sources = [s for s in self.sources if s.role == "automation"]
+
+    def source(self, name: str) -> RateSource:
+        """The connected source called ``name``."""
+        for s in self.sources:
+            if s.name == name:
+                return s
+        raise InputError(f"no source named {name!r}; connected: {[s.name for s in self.sources]}")
+
+    def start_motion(self, trajectory: Trajectory, t: float = 0.0) -> PathTracker:
+        """A new automation command: track ``trajectory``'s path from the next step.
+
+        Resets the mixer (no handover, ``t_o = 0``). In manual modes (M1, M4) the motion is
+        accepted but has no effect.
+
+        Returns
+        -------
+        PathTracker
+            The tracker of the motion (also :attr:`tracker`).
+        """
+        tracker = PathTracker(trajectory, self.crane, self.tracker_params)
+        self.tracker = tracker
+        self._motion_end = tracker.end
+        self._begin(PathTrackerSource(tracker), t, f"{trajectory.duration_s:.3f} s planned")
+        return tracker
+
+    def go_to(
+        self, goal_p: Any, gains: Any = (1.5, 1.5, 1.5), v_max_m_s: float = 0.5, t: float = 0.0
+    ) -> PositionSource:
+        """A new automation command: the position controller (001 section 2.3) drives the tip to ``goal_p`` (3,) (m).
+
+        Returns
+        -------
+        PositionSource
+            The motion's source (its ``gains`` are ``K_P``, 1/s).
+        """
+        source = PositionSource(goal_p, gains, v_max_m_s, name="position")
+        self.tracker = None
+        self._motion_end = source.goal
+        self._begin(source, t, f"go to {list(source.goal)}")
+        return source
+
+    def _begin(self, source: RateSource, t: float, detail: str) -> None:
+        if self._motion is not None:
+            self.sources.remove(self._motion)
+        self._motion = source
+        self.sources.append(source)
+        self._sort_sources()
+        self.mixer.reset()
+        if self.guard is not None:
+            self.guard.reset()
+        self._auto_active = self.mode.authority != "manual"
+        self.events.append(Event(float(t), "motion_start", detail))
+
+    @property
+    def motion(self) -> RateSource | None:
+        """The source of the current (or last) automated motion."""
+        return self._motion
+
+    @property
+    def automation_active(self) -> bool:
+        """True while an automated motion is in control (not arrived, aborted or handed over)."""
+        return self._auto_active
+
+    @property
+    def motion_end_p(self) -> Vec3 | None:
+        """End point (3,) (m, base frame) of the automated motion in control; None when none is.
+
+        The path's end ``q(l)`` for :meth:`start_motion`, the goal for :meth:`go_to`. Operator
+        models use it to take over when the motion is nearly completed (000 section 3.3).
+        """
+        return self._motion_end if self._auto_active else None
+
+    def _end_motion(self, t: float, name: str, detail: str = "") -> None:
+        self._auto_active = False
+        self.events.append(Event(t, name, detail))
+
+    # --------------------------------------------------------------------- step
+    def step(self, state: CraneState, inputs: OperatorInput | None) -> np.ndarray:
+        """One control step: measured state + operator input -> joint velocity command.
+
+        Parameters
+        ----------
+        state : CraneState
+            Measured joint positions and velocities at ``state.t``.
+        inputs : OperatorInput or None
+            Latest operator sample; None counts as stale.
+
+        Returns
+        -------
+        ndarray, shape (4,)
+            Joint velocity command (rad/s, rad/s, rad/s, m/s): finite, within the velocity
+            limits, within ``qdd_max`` of the previous command, braking before position limits.
+        """
+        st = self.status
+        q = state.q
+        qd_meas = state.qd
+        if type(q) is not tuple:
+            q = _floats4(q)
+        if type(qd_meas) is not tuple:
+            qd_meas = _floats4(qd_meas)
+        try:
+            t = float(state.t)
+            state_ok = math.isfinite(t + q[0] + q[1] + q[2] + q[3] + qd_meas[0] + qd_meas[1] + qd_meas[2] + qd_meas[3])
+        except (TypeError, ValueError):
+            t, state_ok = math.nan, False
+        if not self._started:
+            self._started = True
+            self._prev = qd_meas if state_ok else _ZERO4
+        st.t = t
+
+        # ---- 1. operator input: stale, non-finite and out-of-range handling
+        axes, abort, flags, stale = self._read_input(inputs, t)
+        if stale != self._stale:
+            self._stale = stale
+            self.events.append(Event(t, "stale" if stale else "fresh"))
+        nonfinite = (flags & _NONFINITE) != 0
+        if nonfinite and not self._nonfinite:
+            self.events.append(Event(t, "nonfinite_input"))
+        self._nonfinite = nonfinite
+
+        if not state_ok:
+            flags |= _BAD_STATE
+            if not (self.events and self.events[-1].name == "bad_state"):
+                self.events.append(Event(t, "bad_state"))
+            cmd = self._ramp_to_zero()
+            st.authority, st.c_a, st.c_o, st.flags, st.qd_cmd = _STOPPED, 0.0, 1.0, flags, cmd
+            return np.array(cmd)
+
+        # ---- kinematics and the sources' context
+        p, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
+        ctx = self._ctx
+        ctx.t, ctx.q, ctx.qd, ctx.p, ctx.jac, ctx.axes = t, q, qd_meas, p, jac, axes
+        ctx.tip_speed = _tip_speed(jac, qd_meas)
+        st.p_tip = p
+
+        if stale:
+            target = _ZERO4
+            st.authority, st.c_a, st.c_o, st.speed_o = _STOPPED, 0.0, 1.0, 0.0
+        else:
+            target, flags = self._target(ctx, abort, flags)
+
+        cmd, flags = self._limit(target, q, qd_meas, flags)
+        st.flags = flags
+        st.qd_cmd = cmd
+        self._prev = cmd
+        return np.array(cmd)
+
+    # ----------------------------------------------------------------- pieces
+    def _read_input(self, inputs: OperatorInput | None, t: float) -> tuple[Vec4, bool, int, bool]:
+        """(axes, abort, flags, stale) from an input sample."""
+        if inputs is None:
+            return _ZERO4, False, _STALE, True
+        try:
+            stale = not (t - inputs.t <= self.params.stale_after_s)  # NaN counts as stale
+        except TypeError:
+            stale = True
+        flags = 0
+        axes = inputs.axes
+        try:  # fast path: a tuple of 4 numbers within [-1, 1] (NaN fails the comparisons)
+            a0, a1, a2, a3 = axes
+            ok = type(axes) is tuple and -1.0 <= a0 <= 1.0 and -1.0 <= a1 <= 1.0 and -1.0 <= a2 <= 1.0 and (
+                -1.0 <= a3 <= 1.0
+            )
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            axes, flags = _sanitize_axes(axes)
+        if stale:
+            return _ZERO4, False, flags | _STALE, True
+        try:
+            abort = inputs.abort is True or bool(inputs.abort == 1)
+        except (TypeError, ValueError):
+            abort = False
+        return axes, abort, flags, False
+
+    def _target(self, ctx: StepContext, abort: bool, flags: int) -> tuple[Vec4, int]:
+        """Target joint velocity before limits, for the mode and automation state."""
+        st = self.status
+        jac = ctx.jac
+
+        # operator sources: p_o (Cartesian) and qd_o (joint operation)
+        po_x = po_y = po_z = 0.0
+        qo = None
+        for src in self._operator_sources:
+            if not src.enabled:
+                continue
+            r = src.rate(ctx)
+            if src.space == "cartesian":
+                po_x += r[0]
+                po_y += r[1]
+                po_z += r[2]
+            elif qo is None:
+                qo = r
+            else:
+                qo = (qo[0] + r[0], qo[1] + r[1], qo[2] + r[2], qo[3] + r[3])
+        if qo is not None:  # joint operation: p_o = J qd_o (000 eq. 1)
+            po_x += jac[0] * qo[0] + jac[1] * qo[1] + jac[2] * qo[2] + jac[3] * qo[3]
+            po_y += jac[4] * qo[0] + jac[5] * qo[1] + jac[6] * qo[2] + jac[7] * qo[3]
+            po_z += jac[8] * qo[0] + jac[9] * qo[1] + jac[10] * qo[2] + jac[11] * qo[3]
+        speed_o = math.sqrt(po_x * po_x + po_y * po_y + po_z * po_z)
+        st.speed_o = speed_o
+
+        # automation: abort, sources, arrival
+        if self._auto_active and abort:
+            self._end_motion(ctx.t, "abort")
+        auto = self._auto_active
+        pa = _ZERO3
+        za = None
+        if auto:
+            pa_x = pa_y = pa_z = 0.0
+            for src in self._automation_sources:
+                if not src.enabled:
+                    continue
+                r = src.rate(ctx)
+                pa_x += r[0]
+                pa_y += r[1]
+                pa_z += r[2]
+                zr = src.nullspace(ctx)
+                if zr is not None:
+                    za = zr if za is None else (za[0] + zr[0], za[1] + zr[1], za[2] + zr[2], za[3] + zr[3])
+            pa = (pa_x, pa_y, pa_z)
+            motion = self._motion
+            st.s_p, st.deviation_m = motion.s_p, motion.deviation_m
+            if motion.arrived(ctx):
+                self._end_motion(ctx.t, "arrival", f"{motion.dist_end_m * 1000:.1f} mm from the end point")
+                auto = False
+                pa, za = _ZERO3, None
+        else:
+            st.s_p = st.deviation_m = math.nan
+
+        # mode logic -> merged tip velocity p_s (000 eq. 4), or a direct joint command
+        c_a = 0.0
+        qo_weights = None
+        if auto and self._traded:
+            st.authority = _TRADED
+            c_a = 1.0
+            ps = pa
+            st.c_o = 1.0
+        elif auto:  # shared
+            st.authority = _SHARED
+            motion = self._motion
+            c_a = self.mixer.update(ctx.dt, speed_o, motion.deviation_m, motion.dist_end_m)
+            if self.mixer.handed_over:
+                self._end_motion(ctx.t, "handover", f"t_o {self.mixer.t_o:.2f} s in a weak zone")
+                c_a = 0.0
+            if speed_o > 0.0:
+                (gx, gy, gz), flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
+            else:
+                gx, gy, gz = 0.0, 0.0, 0.0
+                st.c_o = 1.0
+            ps = (c_a * pa[0] + gx, c_a * pa[1] + gy, c_a * pa[2] + gz)
+            qo_weights = qo
+        else:
+            st.authority = _MANUAL
+            if self._joint_operation:  # manual joint operation: the operator's joint rates directly
+                st.c_a, st.c_o = 0.0, 1.0
+                return (qo if qo is not None else _ZERO4), flags
+            ps, flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
+        st.c_a = c_a
+
+        # resolved rate (000 eq. 2, 001 eq. 7)
+        w = self._weights(ctx.q, qo_weights)
+        if za is not None and c_a > 0.0:
+            z = (c_a * za[0], c_a * za[1], c_a * za[2], c_a * za[3])
+        else:
+            z = self._centering(ctx.q)
+        prm = self.params
+        qd, sigma_min, lam = resolve_rate_fast(jac, ps, w, z, prm.sigma_threshold, prm.damping_max)
+        st.sigma_min = sigma_min
+        if lam > 0.0:
+            flags |= _DAMPED
+        return qd, flags
+
+    def _guard(self, q: Vec4, po: Vec3, flags: int) -> tuple[Vec3, int]:
+        if self.guard is None:
+            self.status.c_o = 1.0
+            return po, flags
+        out = self.guard.apply(q, po)
+        c_o = self.guard.c_o
+        self.status.c_o = c_o
+        if c_o < 1.0:
+            flags |= _GUARD
+        return out, flags
+
+    def _weights(self, q: Vec4, qo: Vec4 | None) -> Vec4:
+        """Joint-limit weights (the law of resolved_rate.joint_limit_weights), raised for the operator's joints."""
+        a, b = self._w_free_lo, self._w_free_hi
+        if a[0] <= q[0] <= b[0] and a[1] <= q[1] <= b[1] and a[2] <= q[2] <= b[2] and a[3] <= q[3] <= b[3]:
+            w = list(self._w_nom)  # every joint outside its fade zone
+        else:
+            floor = self.params.limit_weight_floor
+            w = []
+            for qi, lo, hi, width, w_nom in zip(q, self._w_lo, self._w_hi, self._w_width, self._w_nom, strict=True):
+                d = qi - lo
+                d2 = hi - qi
+                x = (d if d < d2 else d2) / width
+                if x >= 1.0:
+                    w.append(w_nom)
+                else:
+                    x = 0.0 if x < 0.0 else x
+                    w.append(w_nom * (floor + (1.0 - floor) * x * x * (3.0 - 2.0 * x)))
+        if qo is not None:
+            act = [min(1.0, abs(qo[i]) / self._activity_rate[i]) for i in range(4)]
+            a_max = max(act)
+            if a_max > 0.0:
+                up, down = self.params.operator_weight_raise, self.params.operator_weight_lower
+                for i in range(4):
+                    w[i] *= (1.0 + (up - 1.0) * act[i]) * (1.0 + (down - 1.0) * a_max * (1.0 - act[i]))
+        return (w[0], w[1], w[2], w[3])
+
+    def _centering(self, q: Vec4) -> Vec4:
+        """Null-space reference ``z = c grad H``, ``H = -sum ((q_i - mid_i) / range_i)^2`` (001 eq. 7)."""
+        k = self.params.centering_gain_per_s
+        if k == 0.0:
+            return _ZERO4
+        m, s = self._mid, self._inv_span2
+        return (-2.0 * k * (q[0] - m[0]) * s[0], -2.0 * k * (q[1] - m[1]) * s[1], -2.0 * k * (q[2] - m[2]) * s[2],
+                -2.0 * k * (q[3] - m[3]) * s[3])
+
+    def _limit(self, target: Vec4, q: Vec4, qd_meas: Vec4, flags: int) -> tuple[Vec4, int]:
+        """Velocity, position-limit and acceleration limits (see the module docstring)."""
+        # fast path: nothing binds (within the velocity limits, away from every braking curve, a small change)
+        t0, t1, t2, t3 = target
+        p0, p1, p2, p3 = self._prev
+        c0, c1, c2, c3 = self._dv_cap
+        lo, hi = self._v_lo, self._v_hi
+        nlo, nhi = self._near_lo, self._near_hi
+        lag = self._lag
+        if (
+            -c0 <= t0 - p0 <= c0 and -c1 <= t1 - p1 <= c1 and -c2 <= t2 - p2 <= c2 and -c3 <= t3 - p3 <= c3
+            and lo[0] <= t0 <= hi[0] and lo[1] <= t1 <= hi[1] and lo[2] <= t2 <= hi[2] and lo[3] <= t3 <= hi[3]
+            and nlo[0] < q[0] + lag * qd_meas[0] < nhi[0] and nlo[1] < q[1] + lag * qd_meas[1] < nhi[1]
+            and nlo[2] < q[2] + lag * qd_meas[2] < nhi[2] and nlo[3] < q[3] + lag * qd_meas[3] < nhi[3]
+        ):
+            return (t0, t1, t2, t3), flags  # (NaN fails the comparisons and takes the general path)
+        t = list(target)
+        if not math.isfinite(t[0] + t[1] + t[2] + t[3]):
+            t = [x if math.isfinite(x) else 0.0 for x in t]
+        v_lo, v_hi = self._v_lo, self._v_hi
+        # 1. uniform scaling into the direction-dependent velocity limits
+        k = 1.0
+        for v, lo, hi in zip(t, v_lo, v_hi, strict=True):
+            if v > hi:
+                r = hi / v
+                if r < k:
+                    k = r
+            elif v < lo:
+                r = lo / v
+                if r < k:
+                    k = r
+        if k < 1.0:
+            flags |= _VEL
+            t = [v * k for v in t]
+        # 2. braking curves before the position limits, per joint: |v| <= sqrt(2 a_b d); they only bind
+        #    within v_lim^2 / (2 a_b) of a limit (the predicted position counts: lag x measured velocity)
+        lag = self._lag
+        ub = lb = None
+        for i, (qi, vi, near_lo, near_hi) in enumerate(zip(q, qd_meas, self._near_lo, self._near_hi, strict=True)):
+            qp = qi + lag * vi
+            if near_lo < qp < near_hi:
+                continue
+            if ub is None:
+                ub, lb = list(v_hi), list(v_lo)
+            two_ab = self._two_a_brake[i]
+            d = self._q_hi[i] - qp
+            if d < self._far_hi[i]:
+                ub[i] = math.sqrt(two_ab * d) if d > 0.0 else 0.0
+            d = qp - self._q_lo[i]
+            if d < self._far_lo[i]:
+                lb[i] = -math.sqrt(two_ab * d) if d > 0.0 else 0.0
+            if t[i] > ub[i]:
+                t[i] = ub[i]
+                flags |= _POS
+            elif t[i] < lb[i]:
+                t[i] = lb[i]
+                flags |= _POS
+        # 3. uniform scaling of the change into the acceleration limits
+        prev = self._prev
+        ka = 1.0
+        for v, pv, cap in zip(t, prev, self._dv_cap, strict=True):
+            dv = v - pv
+            if dv > cap:
+                r = cap / dv
+                if r < ka:
+                    ka = r
+            elif dv < -cap:
+                r = -cap / dv
+                if r < ka:
+                    ka = r
+        if ka < 1.0:
+            flags |= _ACC
+            t = [pv + ka * (v - pv) for v, pv in zip(t, prev, strict=True)]
+            # 4. a joint over its braking curve brakes on its own, at up to qdd_max
+            if ub is not None:
+                for i in range(4):
+                    if t[i] > ub[i]:
+                        t[i] = max(ub[i], prev[i] - self._dv_cap[i])
+                    elif t[i] < lb[i]:
+                        t[i] = min(lb[i], prev[i] + self._dv_cap[i])
+        return (t[0], t[1], t[2], t[3]), flags
+
+    def _ramp_to_zero(self) -> Vec4:
+        """Decelerate the previous command toward 0 within qdd_max (state unknown)."""
+        out = []
+        for v, cap in zip(self._prev, self._dv_cap, strict=True):
+            out.append(0.0 if abs(v) <= cap else v - math.copysign(cap, v))
+        self._prev = (out[0], out[1], out[2], out[3])
+        return self._prev
+
+
+# ==================================================================== helpers
+def _floats4(v: Any) -> Vec4:
+    if type(v) is tuple and len(v) == 4:
+        return v
+    try:
+        a = np.asarray(v, dtype=np.float64).reshape(-1).tolist()
+    except (TypeError, ValueError):
+        return (math.nan, math.nan, math.nan, math.nan)
+    if len(a) != 4:
+        return (math.nan, math.nan, math.nan, math.nan)
+    return (a[0], a[1], a[2], a[3])
+
+
+def _sanitize_axes(raw: Any) -> tuple[Vec4, int]:
+    """Stick axes as 4 floats in [-1, 1]: non-finite (or missing) -> 0, out of range -> clipped; with flags."""
+    flags = 0
+    vals = []
+    for i in range(4):
+        try:
+            a = float(raw[i])
+        except (TypeError, ValueError, IndexError, KeyError):
+            a = math.nan
+        if not math.isfinite(a):
+            flags |= _NONFINITE
+            a = 0.0
+        elif a > 1.0:
+            flags |= _RANGE
+            a = 1.0
+        elif a < -1.0:
+            flags |= _RANGE
+            a = -1.0
+        vals.append(a)
+    try:
+        if len(raw) != 4:
+            flags |= _NONFINITE
+    except TypeError:
+        flags |= _NONFINITE
+    return (vals[0], vals[1], vals[2], vals[3]), flags
+
+
+def _tip_speed(jac: tuple[float, ...], qd: Vec4) -> float:
+    vx = jac[0] * qd[0] + jac[1] * qd[1] + jac[2] * qd[2] + jac[3] * qd[3]
+    vy = jac[4] * qd[0] + jac[5] * qd[1] + jac[6] * qd[2] + jac[7] * qd[3]
+    vz = jac[8] * qd[0] + jac[9] * qd[1] + jac[10] * qd[2] + jac[11] * qd[3]
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+

@@ -1,0 +1,276 @@
+"""Shared-control mixer (000 section 2.4, eqs. 4-5) and the obstacle guard ``c_o``.
+
+The merged tip velocity is (000 eq. 4)::
+
+    p_s = c_a p_a + c_o p_o
+
+with ``p_a`` the automation's and ``p_o`` the operator's velocity reference.
+
+Automation coefficient ``c_a`` (000 eq. 5)
+-----------------------------------------
+``c_a(|p_o|, s_p, |p - q_p|, t_o) = c_speed * c_dist * c_time``, all smooth (C1 smoothstep
+``S(x) = 3x^2 - 2x^3`` on [0, 1]):
+
+* weak-zone membership ``w in [0, 1]``: 1 inside the sphere of radius ``end_zone_radius_m``
+  around the path's end point, 1 beyond ``far_distance_m`` from the path, blending over
+  ``zone_band_m``;  ``w = max(w_end, w_far)``;
+* ``c_speed = 1 - S(|p_o| / v_ref)``: falls to 0 as the operator's speed rises to
+  ``v_ref = v_operator_max (1 - (1 - weak_speed_factor) w)``, a lower speed inside weak zones;
+* ``c_dist = 1 - (1 - far_factor) S(|p - q_p| / far_distance_m)``: falls monotonically with the
+  distance from the path (to ``far_factor`` at ``far_distance_m``);
+* ``c_time = 1 - S(t_o / takeover_time_s)``: ``t_o``, the interaction time, grows (at rate
+  ``w``) while the operator acts strongly (``|p_o| >= takeover_speed_frac v_ref``) inside a
+  weak zone, and decays at ``t_o_decay`` otherwise. When ``t_o`` reaches ``takeover_time_s``
+  the mixer hands over: ``c_a = 0`` permanently (manual control) until :meth:`Mixer.reset`,
+  i.e. until a new automation command (000 section 2.4). ``c_a`` is continuous through the
+  handover because ``c_time`` is 0 there.
+
+Obstacle guard ``c_o(p, p_o)``
+------------------------------
+000 proposes ``c_o(p, p_o)`` "to prevent the operator from running the system into known
+obstacle geometries". :class:`ObstacleGuard` scales only the component of ``p_o`` toward the
+nearest obstacle (crane-to-obstacle direction from fcl's nearest points)::
+
+    p_o' = p_o - (1 - c_o) max(0, p_o . n) n,   c_o = S(clearance / margin)
+
+so motion along or away from the obstacle is untouched. The direction is that of the
+nearest pair, which for a link (not the grapple) is an approximation of how the tip
+velocity moves that link. fcl is called only when the operator moves and the clearance
+could be below the margin: a cached distance is reused while
+``clearance_cached - D(q_cached, q) >= margin``, ``D`` a bound on how far any point of the
+crane can have moved (lever arms times joint changes), which makes the cache exact.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..checks import check_scalar
+from ..errors import InputError
+from ..model.collision import CollisionChecker
+
+Vec3 = tuple[float, float, float]
+
+
+def smoothstep(x: float) -> float:
+    """C1 step ``3x^2 - 2x^3`` on [0, 1], 0 below, 1 above."""
+    if x <= 0.0:
+        return 0.0
+    if x >= 1.0:
+        return 1.0
+    return x * x * (3.0 - 2.0 * x)
+
+
+@dataclass(frozen=True)
+class MixerParams:
+    """Parameters of :class:`Mixer` and :class:`ObstacleGuard` (defaults for the lab crane).
+
+    Attributes
+    ----------
+    v_operator_max_m_s : float
+        Operator speed (m/s) at which ``c_a`` reaches 0 outside weak zones; the Cartesian
+        joystick's full-deflection speed.
+    weak_speed_factor : float
+        Inside a weak zone ``c_a`` reaches 0 at this fraction of ``v_operator_max_m_s``.
+    end_zone_radius_m : float
+        Radius (m) of the spherical weak zone around the path's end point (000 section 3.3:
+        "~1 m" in the lab experiments).
+    far_distance_m : float
+        Beyond this distance (m) from the path the tip is in a weak zone, and ``c_dist``
+        has fallen to ``far_factor``.
+    far_factor : float
+        ``c_dist`` at and beyond ``far_distance_m``.
+    zone_band_m : float
+        Width (m) of the smooth edge of the weak zones.
+    takeover_speed_frac : float
+        The operator acts "strongly" at ``|p_o| >= takeover_speed_frac * v_ref``.
+    takeover_time_s : float
+        Interaction time ``t_o`` (s) in a weak zone after which control switches to manual.
+    t_o_decay : float
+        Rate (s/s) at which ``t_o`` decays while the operator does not act strongly in a weak zone.
+    obstacle_margin_m : float
+        Clearance (m) below which the operator's velocity toward the nearest obstacle is scaled down.
+    """
+
+    v_operator_max_m_s: float = 0.8
+    weak_speed_factor: float = 0.5
+    end_zone_radius_m: float = 1.0
+    far_distance_m: float = 0.5
+    far_factor: float = 0.5
+    zone_band_m: float = 0.1
+    takeover_speed_frac: float = 0.25
+    takeover_time_s: float = 0.5
+    t_o_decay: float = 1.0
+    obstacle_margin_m: float = 0.25
+
+    def __post_init__(self) -> None:
+        for name in ("v_operator_max_m_s", "far_distance_m", "zone_band_m", "takeover_time_s", "obstacle_margin_m"):
+            check_scalar(getattr(self, name), name, gt=0.0)
+        for name in ("weak_speed_factor", "far_factor", "takeover_speed_frac"):
+            check_scalar(getattr(self, name), name, ge=0.0, le=1.0)
+        check_scalar(self.weak_speed_factor, "weak_speed_factor", gt=0.0)
+        check_scalar(self.end_zone_radius_m, "end_zone_radius_m", ge=0.0)
+        check_scalar(self.t_o_decay, "t_o_decay", ge=0.0)
+
+
+class Mixer:
+    """The automation coefficient ``c_a`` of 000 eq. 5 with weak zones and handover.
+
+    Parameters
+    ----------
+    params : MixerParams, optional
+    track_weak : bool
+        Keep :attr:`weak` up to date also while the operator is hands off (otherwise it is
+        only computed when it matters, i.e. while the operator acts or ``t_o > 0``).
+
+    Attributes
+    ----------
+    c_a : float
+        Last coefficient.
+    t_o : float
+        Interaction time (s).
+    weak : float
+        Last weak-zone membership ``w`` (see ``track_weak``).
+    handed_over : bool
+        Latched once ``t_o`` reached ``takeover_time_s``; cleared by :meth:`reset`.
+    """
+
+    def __init__(self, params: MixerParams | None = None, track_weak: bool = False):
+        self.params = params or MixerParams()
+        self._track_weak = bool(track_weak)  # compute ``weak`` also while the operator is hands off
+        self.reset()
+
+    def reset(self) -> None:
+        """A new automation command: full automation, no interaction time, no handover."""
+        self.c_a = 1.0
+        self.t_o = 0.0
+        self.weak = 0.0
+        self.handed_over = False
+
+    def weak_zone(self, deviation_m: float, dist_end_m: float) -> float:
+        """Weak-zone membership ``w`` in [0, 1] (see the module docstring)."""
+        prm = self.params
+        w_end = 1.0 - smoothstep((dist_end_m - prm.end_zone_radius_m) / prm.zone_band_m)
+        w_far = smoothstep((deviation_m - prm.far_distance_m) / prm.zone_band_m)
+        return w_end if w_end > w_far else w_far
+
+    def update(self, dt: float, speed_o: float, deviation_m: float, dist_end_m: float) -> float:
+        """Advance ``t_o`` by ``dt`` (s) and return ``c_a`` (000 eq. 5).
+
+        Parameters
+        ----------
+        dt : float
+            Control period (s).
+        speed_o : float
+            Operator speed ``|p_o|`` (m/s).
+        deviation_m : float
+            Distance from the path ``|p - q_p|`` (m).
+        dist_end_m : float
+            Distance from the path's end point (m); it defines the end weak zone (``s_p`` near ``l``).
+        """
+        if self.handed_over:
+            self.c_a = 0.0
+            return 0.0
+        prm = self.params
+        x = deviation_m / prm.far_distance_m
+        c_dist = 1.0 - (1.0 - prm.far_factor) * (x * x * (3.0 - 2.0 * x) if x < 1.0 else 1.0)
+        if speed_o == 0.0 and self.t_o == 0.0:  # hands off, no interaction: c_speed = c_time = 1
+            self.weak = self.weak_zone(deviation_m, dist_end_m) if self._track_weak else 0.0
+            self.c_a = c_dist
+            return c_dist
+        w = self.weak_zone(deviation_m, dist_end_m)
+        self.weak = w
+        v_ref = prm.v_operator_max_m_s * (1.0 - (1.0 - prm.weak_speed_factor) * w)
+        if w > 0.0 and speed_o >= prm.takeover_speed_frac * v_ref:
+            self.t_o += w * dt
+        else:
+            self.t_o = max(0.0, self.t_o - prm.t_o_decay * dt)
+        if self.t_o >= prm.takeover_time_s:
+            self.handed_over = True
+            self.c_a = 0.0
+            return 0.0
+        c_speed = 1.0 - smoothstep(speed_o / v_ref)
+        c_time = 1.0 - smoothstep(self.t_o / prm.takeover_time_s)
+        self.c_a = c_speed * c_dist * c_time
+        return self.c_a
+
+
+class ObstacleGuard:
+    """``c_o``: scales the operator's velocity toward the nearest known obstacle (see the module docstring).
+
+    Parameters
+    ----------
+    checker : CollisionChecker
+        Checker of the crane in its scene (margin 0 recommended: the guard adds its own).
+    margin_m : float
+        Clearance (m) below which the toward-obstacle component is scaled down.
+    loaded : bool
+        The grapple carries a log.
+
+    Attributes
+    ----------
+    c_o : float
+        Last factor (1 = no scaling).
+    fcl_calls : int
+        Number of distance queries made (the cache avoids most).
+    """
+
+    def __init__(self, checker: CollisionChecker, margin_m: float = 0.25, loaded: bool = False):
+        if not isinstance(checker, CollisionChecker):
+            raise InputError(f"checker: expected a CollisionChecker, got {type(checker).__name__}")
+        self.checker = checker
+        self.margin = check_scalar(margin_m, "margin_m", gt=0.0)
+        self.loaded = bool(loaded)
+        m = checker.crane.model
+        q4_max = float(checker.crane.q_max[3])
+        ell = math.hypot(m.jib_length + q4_max, m.telescope_offset)
+        hang = 0.5 * m.log_length + m.grapple_radius + m.log_diameter  # farthest hanging point across the heading
+        # lever arms (m per rad, m per m) bounding the motion of any crane point, carried log included
+        self._levers = (m.boom_pivot_offset + m.boom_length + ell + hang + checker.margin, m.boom_length + ell,
+                        ell, 1.0)
+        self.c_o = 1.0
+        self.fcl_calls = 0
+        self._q_cache: tuple[float, ...] | None = None
+        self._clearance = math.inf
+        self._normal: Vec3 = (0.0, 0.0, 0.0)
+
+    def reset(self) -> None:
+        """Drop the cached distance."""
+        self._q_cache = None
+        self.c_o = 1.0
+
+    def _movement_bound(self, q: tuple[float, ...]) -> float:
+        qc, lv = self._q_cache, self._levers
+        return (lv[0] * abs(q[0] - qc[0]) + lv[1] * abs(q[1] - qc[1]) + lv[2] * abs(q[2] - qc[2])
+                + lv[3] * abs(q[3] - qc[3]))
+
+    def apply(self, q: tuple[float, ...], pd_o: Vec3) -> Vec3:
+        """The guarded operator velocity ``p_o'`` (3,) (m/s) at configuration ``q`` (4,); sets :attr:`c_o`."""
+        vx, vy, vz = pd_o
+        if vx == 0.0 and vy == 0.0 and vz == 0.0:
+            self.c_o = 1.0
+            return pd_o
+        if self._q_cache is not None and self._clearance - self._movement_bound(q) >= self.margin:
+            self.c_o = 1.0
+            return pd_o
+        res = self.checker.distance(q, self.loaded)
+        self.fcl_calls += 1
+        self._q_cache = tuple(q)
+        self._clearance = res.distance
+        a, b = res.points[0], res.points[1]
+        nx, ny, nz = float(b[0] - a[0]), float(b[1] - a[1]), float(b[2] - a[2])
+        norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+        if res.distance < 0.0:  # penetrating: the nearest points point out of the obstacle
+            nx, ny, nz = -nx, -ny, -nz
+        self._normal = (nx / norm, ny / norm, nz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
+        c_o = smoothstep(res.distance / self.margin)
+        self.c_o = c_o
+        if c_o >= 1.0:
+            return pd_o
+        nx, ny, nz = self._normal
+        toward = vx * nx + vy * ny + vz * nz
+        if toward <= 0.0:
+            return pd_o
+        cut = (1.0 - c_o) * toward
+        return (vx - cut * nx, vy - cut * ny, vz - cut * nz)

@@ -1,0 +1,500 @@
+"""Operator models for the closed loop: passive, scripted stick files and simulated operators.
+
+Every operator has ``input(obs) -> OperatorInput`` (one stick sample per control step, from
+an :class:`Observation` of the crane) and ``done(obs) -> bool`` (the operator considers the
+task finished; the loop then stops once the tip has settled).
+
+Scripted stick file (CSV)
+-------------------------
+One header line naming the columns, then one row per sample, times strictly increasing.
+Lines starting with ``#`` are comments::
+
+    t,left_x,left_y,right_x,right_y,abort,dropout
+    0.0,0,0,0,0,0,0
+    2.0,0,0.6,0,0,0,0
+    3.5,nan,0,0,0,0,0
+    4.0,0,0,0,0,1,0
+    6.0,0,0,0,0,0,0
+
+``t`` (s) is the time from the start of the run; ``left_x .. right_y`` are the stick axes
+(:mod:`motionlib.runtime.sources`), nominally in [-1, 1] (``nan``, ``inf`` and out-of-range values are
+passed on as they are: that is how a faulty device is scripted); ``abort`` is 0 or 1 (button
+held). ``dropout`` (optional) is 0 or 1: 1 means the device stops sending at that row, so the
+controller's copy of the input ages and turns stale 0.1 s later. Each row holds until the
+next (zero-order hold); the last row holds until the run ends. The script is done after its
+last row's time.
+
+Simulated operators (:class:`SimulatedOperator`)
+------------------------------------------------
+A goal-directed model: the operator aims at its estimate of the target (the true target plus
+a Gaussian error of ``precision_m`` per axis, drawn once, seeded), sees the tip with a
+reaction delay, and every ``update_period_s`` chooses the tip velocity
+``v = gain (goal_est - p_seen)``, at most ``max_speed_m_s``, which it turns into stick axes
+through the controller's joystick mapping. In joint operation it moves at most ``max_joints``
+joints at once (the subset whose joint rates best give ``v``, least squares, leaving out joints
+that would push further into a stop within 3 % of their range; cf. 003 Fig. 3.4: experienced
+operators use more joints simultaneously). The hand is not perfect: the stick
+follows the choice with a first-order lag ``stick_tau_s`` and carries Ornstein-Uhlenbeck noise
+of standard deviation ``noise`` (fraction of full deflection) and correlation time
+``noise_tau_s`` while the hand is on the stick. It stops when, as far as it can see, the tip
+is within ``precision_m`` of its estimate and moving slower than ``settle_speed_m_s``, and is
+then done. Given via points (e.g. the planned route's waypoints, so
+that a manual operator goes above an obstacle as the experiment requires, 000 section 3.3),
+it aims at each in turn until the tip is within ``via_radius_m`` of it or the target is
+nearer than it.
+
+While an automated motion runs (traded and shared modes) the operator keeps the hands off
+until the tip is within ``takeover_distance_m`` of the target or of the motion's end point
+(``Observation.motion_end``: the automated task is nearly completed, 000 section 3.3), or the
+motion has ended; then it acts (shared modes) or presses abort and acts (traded modes).
+
+Presets (``OPERATOR_PRESETS``) -- set once from general reasoning, not fitted to 000's results:
+
+========================  ========  ========  ==========================================
+parameter                 novice    expert    reasoning
+========================  ========  ========  ==========================================
+reaction_time_s           0.5       0.25      choice reaction times of untrained / trained
+gain_per_s                0.8       1.5       novices approach cautiously
+max_speed_m_s             0.35      0.7       novices stay slow
+precision_m               0.05      0.02      target estimate error (per axis)
+noise                     0.05      0.02      unsteady hand vs practised hand
+noise_tau_s               0.3       0.3
+stick_tau_s               0.08      0.15      novices jerk the stick, experts ease it
+update_period_s           0.10      0.05      corrections per second
+max_joints                1         3         003 Fig. 3.4 (simultaneous joint use)
+takeover_distance_m       0.3       1.0       experts take over early
+via_radius_m              0.25      0.25      how close a via point must be passed
+settle_speed_m_s          0.05      0.05      "the grapple is still" (seen speed)
+========================  ========  ========  ==========================================
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+import random
+from collections import deque
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..checks import check_points, check_scalar, check_vector
+from ..errors import InputError, ModelFileError
+from ..model.fast_kinematics import TipKinematics
+from ..model.kinematics import Crane
+from .control_types import Mode, OperatorInput
+from .sources import CartesianJoystick, JointJoystick, RateSource
+
+Vec3 = tuple[float, float, float]
+_ZERO4 = (0.0, 0.0, 0.0, 0.0)
+_ZERO4_LIST = [0.0, 0.0, 0.0, 0.0]
+
+SCRIPT_COLUMNS: tuple[str, ...] = ("t", "left_x", "left_y", "right_x", "right_y", "abort", "dropout")
+"""Columns of a stick script; ``dropout`` may be left out."""
+
+
+class Observation:
+    """What an operator model sees in one control step (reused between steps).
+
+    Attributes
+    ----------
+    t : float
+        Time (s).
+    q, qd : tuple of 4 float
+        Joint positions and velocities.
+    p, v : tuple of 3 float
+        Tip position (m) and velocity (m/s), base frame.
+    automation_active : bool
+        An automated motion is in control.
+    motion_end : tuple of 3 float or None
+        End point (m) of the automated motion in control (the operator sees where it is
+        going); None when none is.
+    """
+
+    __slots__ = ("t", "q", "qd", "p", "v", "automation_active", "motion_end")
+
+    def __init__(self) -> None:
+        self.t = 0.0
+        self.q = _ZERO4
+        self.qd = _ZERO4
+        self.p: Vec3 = (0.0, 0.0, 0.0)
+        self.v: Vec3 = (0.0, 0.0, 0.0)
+        self.automation_active = False
+        self.motion_end: Vec3 | None = None
+
+
+class PassiveOperator:
+    """Hands off: the stick at rest, always fresh; done from the start."""
+
+    name = "passive"
+
+    def input(self, obs: Observation) -> OperatorInput:
+        return OperatorInput(obs.t, _ZERO4, False)
+
+    def done(self, obs: Observation) -> bool:
+        return True
+
+
+class ScriptedStick:
+    """A stick script (see the module docstring for the CSV format).
+
+    Parameters
+    ----------
+    rows : array_like, shape (n, 6) or (n, 7)
+        ``t, left_x, left_y, right_x, right_y, abort[, dropout]``; ``t`` finite and strictly
+        increasing, ``abort`` and ``dropout`` 0 or 1; axes may be anything (NaN, inf, ...).
+    name : str
+    """
+
+    def __init__(self, rows: Any, name: str = "script"):
+        arr = np.asarray(rows, dtype=np.float64)
+        if arr.ndim != 2 or arr.shape[1] not in (6, 7) or arr.shape[0] == 0:
+            raise InputError(f"rows: expected an (n, 6) or (n, 7) array, got shape {arr.shape}")
+        if arr.shape[1] == 6:
+            arr = np.column_stack([arr, np.zeros(arr.shape[0])])
+        t = arr[:, 0]
+        if not np.all(np.isfinite(t)) or not np.all(np.diff(t) > 0.0):
+            raise InputError("rows: times must be finite and strictly increasing")
+        for col, what in ((5, "abort"), (6, "dropout")):
+            if not np.all(np.isin(arr[:, col], (0.0, 1.0))):
+                raise InputError(f"rows: {what} must be 0 or 1")
+        self.name = name
+        self._t = t.tolist()
+        self._axes = [tuple(r) for r in arr[:, 1:5].tolist()]
+        self._abort = (arr[:, 5] == 1.0).tolist()
+        self._dropout = (arr[:, 6] == 1.0).tolist()
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the start of the script."""
+        self._i = -1
+
+    @classmethod
+    def load(cls, path: str | Path) -> ScriptedStick:
+        """Read a stick script file.
+
+        Raises
+        ------
+        ModelFileError
+            Missing or unknown columns, unparsable numbers or bad times; the message names file and line.
+        """
+        path = Path(path)
+        try:
+            text = path.read_text()
+        except OSError as exc:
+            raise ModelFileError(f"{path}: cannot read ({exc.strerror})") from exc
+        lines = [
+            (n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip() and not ln.lstrip().startswith("#")
+        ]
+        if not lines:
+            raise ModelFileError(f"{path}: empty stick script")
+        reader = csv.reader([ln for _, ln in lines])
+        header = [h.strip() for h in next(reader)]
+        required = list(SCRIPT_COLUMNS[:6])
+        if header[:6] != required or header[6:] not in ([], ["dropout"]):
+            raise ModelFileError(
+                f"{path}:{lines[0][0]}: expected the header {','.join(required)}[,dropout], got {','.join(header)}"
+            )
+        rows = []
+        for (lineno, _), fields in zip(lines[1:], reader, strict=True):
+            if len(fields) != len(header):
+                raise ModelFileError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)}")
+            try:
+                rows.append([float(x) for x in fields])
+            except ValueError as exc:
+                raise ModelFileError(f"{path}:{lineno}: {exc}") from exc
+        if not rows:
+            raise ModelFileError(f"{path}: no samples after the header")
+        try:
+            return cls(rows, name=f"script:{path.name}")
+        except InputError as exc:
+            raise ModelFileError(f"{path}: {exc}") from exc
+
+    def input(self, obs: Observation) -> OperatorInput:
+        t = obs.t
+        i = self._i
+        tt = self._t
+        while i + 1 < len(tt) and tt[i + 1] <= t + 1e-12:
+            i += 1
+        self._i = i
+        if i < 0:
+            return OperatorInput(t, _ZERO4, False)
+        # a dropout freezes the sample's time stamp at the row where the device stopped sending
+        stamp = tt[i] if self._dropout[i] else t
+        return OperatorInput(stamp, self._axes[i], self._abort[i])
+
+    def done(self, obs: Observation) -> bool:
+        return obs.t >= self._t[-1]
+
+
+@dataclass(frozen=True)
+class OperatorParams:
+    """Parameters of :class:`SimulatedOperator` (see the module docstring and ``OPERATOR_PRESETS``)."""
+
+    reaction_time_s: float = 0.5
+    gain_per_s: float = 0.8
+    max_speed_m_s: float = 0.35
+    precision_m: float = 0.05
+    noise: float = 0.05
+    noise_tau_s: float = 0.3
+    stick_tau_s: float = 0.08
+    update_period_s: float = 0.10
+    max_joints: int = 1
+    takeover_distance_m: float = 0.3
+    via_radius_m: float = 0.25
+    settle_speed_m_s: float = 0.05
+
+    def __post_init__(self) -> None:
+        for name in ("gain_per_s", "max_speed_m_s", "precision_m", "noise_tau_s", "stick_tau_s", "update_period_s",
+                     "via_radius_m", "settle_speed_m_s"):
+            check_scalar(getattr(self, name), name, gt=0.0)
+        for name in ("reaction_time_s", "noise", "takeover_distance_m"):
+            check_scalar(getattr(self, name), name, ge=0.0)
+        if isinstance(self.max_joints, bool) or not isinstance(self.max_joints, int) or not 1 <= self.max_joints <= 4:
+            raise InputError(f"max_joints: expected an integer in 1..4, got {self.max_joints!r}")
+
+
+OPERATOR_PRESETS: dict[str, OperatorParams] = {
+    "novice": OperatorParams(),
+    "expert": OperatorParams(
+        reaction_time_s=0.25,
+        gain_per_s=1.5,
+        max_speed_m_s=0.7,
+        precision_m=0.02,
+        noise=0.02,
+        noise_tau_s=0.3,
+        stick_tau_s=0.15,
+        update_period_s=0.05,
+        max_joints=3,
+        takeover_distance_m=1.0,
+    ),
+}
+
+
+class SimulatedOperator:
+    """A goal-directed operator model (see the module docstring).
+
+    Parameters
+    ----------
+    goal_p : array_like, shape (3,)
+        True target of the tip (m, base frame).
+    params : OperatorParams
+    mode : Mode or str
+        The controller's mode (joint/Cartesian operation; manual/traded/shared).
+    joystick : CartesianJoystick or JointJoystick
+        The controller's joystick source: the operator inverts its mapping.
+    crane : Crane
+        For the Jacobian in joint operation.
+    seed : int
+        Seed of the target-estimate error and the hand noise.
+    name : str
+    via : array_like, shape (k, 3), optional
+        Via points (m, base frame) passed in order before the target.
+    """
+
+    def __init__(
+        self,
+        goal_p: Any,
+        params: OperatorParams,
+        mode: Mode | str,
+        joystick: RateSource,
+        crane: Crane,
+        seed: int = 0,
+        name: str = "operator",
+        via: Any = None,
+    ):
+        if not isinstance(params, OperatorParams):
+            raise InputError(f"params: expected OperatorParams, got {type(params).__name__}")
+        self.goal = check_vector(goal_p, 3, "goal_p")
+        self._goal_t = tuple(self.goal.tolist())
+        self.via = np.zeros((0, 3)) if via is None or len(via) == 0 else check_points(via, "via")
+        self.params = params
+        self.mode = Mode.parse(mode)
+        if self.mode.joint_operation and not isinstance(joystick, JointJoystick):
+            raise InputError("joystick: joint operation needs a JointJoystick")
+        if not self.mode.joint_operation and not isinstance(joystick, CartesianJoystick):
+            raise InputError("joystick: Cartesian operation needs a CartesianJoystick")
+        self.joystick = joystick
+        self.crane = crane
+        self.name = name
+        self._speed = np.minimum(-crane.qd_min, crane.qd_max)
+        span = crane.q_max - crane.q_min
+        self._near_lo = crane.q_min + 0.03 * span
+        self._near_hi = crane.q_max - 0.03 * span
+        self._subset_idx = np.array(list(itertools.combinations(range(4), params.max_joints)))  # (m, k)
+        self._kin = TipKinematics(crane)
+        self._seed = int(seed)
+        self.reset()
+
+    @classmethod
+    def preset(
+        cls,
+        name: str,
+        goal_p: Any,
+        mode: Mode | str,
+        joystick: RateSource,
+        crane: Crane,
+        seed: int = 0,
+        via: Any = None,
+        **overrides: Any,
+    ) -> SimulatedOperator:
+        """An operator from ``OPERATOR_PRESETS[name]`` (``novice``, ``expert``), optionally with overrides."""
+        if name not in OPERATOR_PRESETS:
+            raise InputError(f"operator: expected one of {sorted(OPERATOR_PRESETS)}, got {name!r}")
+        params = replace(OPERATOR_PRESETS[name], **overrides) if overrides else OPERATOR_PRESETS[name]
+        return cls(goal_p, params, mode, joystick, crane, seed=seed, name=name, via=via)
+
+    def reset(self) -> None:
+        """Start over (same seed: same target estimate and noise)."""
+        prm = self.params
+        self._rng = random.Random(self._seed)
+        err = [self._rng.gauss(0.0, prm.precision_m) for _ in range(3)]
+        self.goal_estimate = self.goal + np.array(err)
+        self._via_left = [tuple(v) for v in self.via.tolist()]
+        self.phase = "wait"
+        self._seen: deque[tuple[float, Vec3, Vec3]] = deque()
+        self._next_update = -math.inf
+        self._choice = _ZERO4
+        self._stick = [0.0, 0.0, 0.0, 0.0]
+        self._noise = [0.0, 0.0, 0.0, 0.0]
+        self._t_last: float | None = None
+        self._dt_cached = math.nan
+        self._factors = (0.0, 1.0, 0.0)
+        self._aborted = False
+        self.abort_pressed_at: float | None = None
+
+    # ---------------------------------------------------------------- model
+    def _perceived(self, obs: Observation) -> tuple[Vec3, Vec3]:
+        """The tip position and velocity as seen ``reaction_time_s`` ago."""
+        seen = self._seen
+        seen.append((obs.t, obs.p, obs.v))
+        horizon = obs.t - self.params.reaction_time_s
+        while len(seen) > 1 and seen[1][0] <= horizon + 1e-12:
+            seen.popleft()
+        return seen[0][1], seen[0][2]
+
+    def _choose(self, obs: Observation, p_seen: Vec3, v_seen: Vec3) -> tuple[float, float, float, float]:
+        """Stick axes for the velocity toward the goal estimate, or rest when close enough."""
+        prm = self.params
+        aim = self.goal_estimate
+        while self._via_left:  # the next via point, unless passed or farther than the target
+            via = self._via_left[0]
+            d_via = math.dist(via, p_seen)
+            if d_via <= prm.via_radius_m or math.dist(self._goal_t, p_seen) < d_via:
+                self._via_left.pop(0)
+                continue
+            aim = np.asarray(via)
+            break
+        err = aim - np.asarray(p_seen)
+        dist = float(np.linalg.norm(err))
+        if dist <= prm.precision_m and not self._via_left:
+            if math.hypot(*v_seen) <= prm.settle_speed_m_s:
+                self.phase = "done"
+                return _ZERO4
+        v = err * prm.gain_per_s
+        speed = dist * prm.gain_per_s
+        if speed > prm.max_speed_m_s:
+            v *= prm.max_speed_m_s / speed
+        if isinstance(self.joystick, CartesianJoystick):
+            return self.joystick.axes_for(obs.p, tuple(v.tolist()))
+        q = np.asarray(obs.q)
+        jac = np.reshape(self._kin.tip_jacobian(*obs.q)[1], (3, 4))
+        # least squares for every subset of max_joints joints at once: normal equations (m, k, k)
+        sub = np.transpose(jac[:, self._subset_idx], (1, 0, 2))  # (m, 3, k)
+        gram = np.einsum("mik,mil->mkl", sub, sub) + 1e-12 * np.eye(sub.shape[2])
+        sol = np.linalg.solve(gram, np.einsum("mik,i->mk", sub, v)[..., None])[..., 0]  # (m, k)
+        residual = np.linalg.norm(np.einsum("mik,mk->mi", sub, sol) - v, axis=1)
+        low = q <= self._near_lo  # joints at a stop: an operator does not push them further into it
+        high = q >= self._near_hi
+        pushes = ((sol < 0.0) & low[self._subset_idx]) | ((sol > 0.0) & high[self._subset_idx])
+        residual[pushes.any(axis=1)] = np.inf
+        best = np.zeros(4)
+        m = int(np.argmin(residual))  # the first of equal residuals (subsets in lexicographic order)
+        if np.isfinite(residual[m]):
+            best[self._subset_idx[m]] = sol[m]
+        peak = float(np.max(np.abs(best) / self._speed))
+        if peak > 1.0:  # a human cannot push past full deflection: scale all joints alike
+            best /= peak
+        return self.joystick.axes_for(tuple(best.tolist()))
+
+    def input(self, obs: Observation) -> OperatorInput:
+        prm = self.params
+        t = obs.t
+        dt = 0.0 if self._t_last is None else max(0.0, t - self._t_last)
+        self._t_last = t
+        p_seen, v_seen = self._perceived(obs)
+        abort = False
+        if self.phase == "wait":
+            auto = obs.automation_active
+            end = obs.motion_end
+            near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m or (
+                auto and end is not None and math.dist(end, p_seen) <= prm.takeover_distance_m
+            )
+            # in manual modes act once the reaction time has passed
+            if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (auto and near):
+                self.phase = "act"
+                if auto and self.mode.authority == "traded":
+                    abort = True
+                    self.abort_pressed_at = t
+        if self.phase == "act" and t >= self._next_update:
+            self._choice = self._choose(obs, p_seen, v_seen)
+            self._next_update = t + prm.update_period_s
+        hands_on = self.phase == "act"
+        target = self._choice if hands_on else _ZERO4
+        if dt != self._dt_cached:  # filter factors for this time step (constant in a control loop)
+            decay = math.exp(-dt / prm.noise_tau_s) if dt > 0.0 else 1.0
+            self._dt_cached = dt
+            self._factors = (
+                1.0 - math.exp(-dt / prm.stick_tau_s) if dt > 0.0 else 0.0,
+                decay,
+                prm.noise * math.sqrt(max(0.0, 1.0 - decay * decay)),
+            )
+        a, decay, spread = self._factors
+        stick, noise = self._stick, self._noise
+        if not hands_on and stick == _ZERO4_LIST and noise == _ZERO4_LIST:
+            return OperatorInput(t, _ZERO4, abort)  # hands off and the stick at rest
+        gauss = self._rng.gauss
+        noisy = hands_on and prm.noise > 0.0
+        axes = []
+        for i in range(4):
+            s_i = stick[i] + (target[i] - stick[i]) * a
+            if abs(s_i) < 1e-12 and not hands_on:
+                s_i = 0.0
+            stick[i] = s_i
+            noise[i] = noise[i] * decay + spread * gauss(0.0, 1.0) if noisy else 0.0
+            value = s_i + noise[i]
+            axes.append(1.0 if value > 1.0 else (-1.0 if value < -1.0 else value))
+        return OperatorInput(t, (axes[0], axes[1], axes[2], axes[3]), abort)
+
+    def done(self, obs: Observation) -> bool:
+        return self.phase == "done"
+
+
+def operator_kind(spec: str) -> str:
+    """``passive``, ``preset`` or ``script`` for an operator spec; InputError for anything else."""
+    if spec == "passive":
+        return "passive"
+    if spec in OPERATOR_PRESETS:
+        return "preset"
+    if Path(spec).suffix.lower() == ".csv" or Path(spec).exists():
+        return "script"
+    presets = ", ".join(sorted(OPERATOR_PRESETS))
+    raise InputError(f"operator: expected passive, {presets} or a stick script .csv, got {spec!r}")
+
+
+def make_operator(
+    spec: str, goal_p: Any, mode: Mode | str, joystick: RateSource, crane: Crane, seed: int = 0, via: Any = None
+) -> PassiveOperator | ScriptedStick | SimulatedOperator:
+    """An operator from a command-line spec: ``passive``, ``novice``, ``expert`` or a stick-script path (.csv).
+
+    ``via`` (k, 3) are via points for a simulated operator (see :class:`SimulatedOperator`).
+    """
+    kind = operator_kind(spec)
+    if kind == "passive":
+        return PassiveOperator()
+    if kind == "preset":
+        return SimulatedOperator.preset(spec, goal_p, mode, joystick, crane, seed=seed, via=via)
+    return ScriptedStick.load(spec)

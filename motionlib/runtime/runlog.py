@@ -1,0 +1,219 @@
+"""The 200 Hz run log of a controller run, and its HDF5 file (docs/runtime.md, "Run-log format").
+
+:class:`RunLog` collects one row per control step cheaply (a tuple appended to a list)
+and turns them into arrays at the end; the tip position and velocity are computed then,
+from the logged joint positions and velocities through the forward kinematics (as in 000
+section 3.4), vectorised: ``p = fk(q)``, ``v = J(q) qd`` as the central difference of ``fk``
+along ``qd``. :func:`write_runlog` writes the file atomically (temporary name, fsync,
+rename); :func:`read_runlog` reads it back.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from ..errors import LibraryFileError
+from ..fileio import atomic_output, json_default
+from ..model.kinematics import Crane
+
+RUNLOG_SCHEMA = "motionlib.runtime.runlog"
+RUNLOG_VERSION = 1
+_FD_EPS = 1e-6
+
+#: Columns of a row, in order (see :meth:`RunLog.append`).
+COLUMNS: tuple[str, ...] = (
+    "t", "q1", "q2", "q3", "q4", "qd1", "qd2", "qd3", "qd4", "qd_cmd1", "qd_cmd2", "qd_cmd3", "qd_cmd4",
+    "c_a", "c_o", "s_p", "deviation_m", "flags", "authority", "swing_rad",
+)
+
+
+@dataclass
+class RunLog:
+    """Rows of a run, appended once per control step.
+
+    Attributes
+    ----------
+    events : list
+        Events (objects with ``t``, ``name``, ``detail``), e.g. the controller's.
+    attrs : dict
+        Run description stored as file attributes (mode, operator, seed, target, ...).
+    """
+
+    events: list = field(default_factory=list)
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self._rows: list[tuple] = []
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def append(self, t: float, q: Any, qd: Any, status: Any, swing_rad: float) -> None:
+        """One step: time (s), measured ``q`` (4,), ``qd`` (4,), the controller status, swing angle (rad).
+
+        The command is taken from ``status.qd_cmd`` (4,).
+        """
+        c = status.qd_cmd
+        self._rows.append(
+            (t, q[0], q[1], q[2], q[3], qd[0], qd[1], qd[2], qd[3], c[0], c[1], c[2], c[3],
+             status.c_a, status.c_o, status.s_p, status.deviation_m, status.flags, int(status.authority), swing_rad)
+        )
+
+    @property
+    def t_end(self) -> float:
+        """Time of the last row (s); 0 when empty."""
+        return float(self._rows[-1][0]) if self._rows else 0.0
+
+    def arrays(self, crane: Crane | None = None) -> dict[str, np.ndarray]:
+        """The log as arrays.
+
+        Parameters
+        ----------
+        crane : Crane, optional
+            When given, ``tip_p`` and ``tip_v`` are added.
+
+        Returns
+        -------
+        dict
+            ``t`` (N,) s; ``q`` (N, 4); ``qd`` (N, 4) actual; ``qd_cmd`` (N, 4) commanded;
+            ``c_a``, ``c_o`` (N,); ``s_p`` (N,) m; ``deviation_m`` (N,) m (NaN when no
+            automated motion runs); ``flags`` (N,) uint16 (:class:`~motionlib.runtime.controller.Flag`);
+            ``authority`` (N,) int8 (:class:`~motionlib.runtime.controller.Authority`); ``swing_rad`` (N,);
+            with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s.
+        """
+        data = np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))
+        out = {
+            "t": data[:, 0].copy(),
+            "q": data[:, 1:5].copy(),
+            "qd": data[:, 5:9].copy(),
+            "qd_cmd": data[:, 9:13].copy(),
+            "c_a": data[:, 13].copy(),
+            "c_o": data[:, 14].copy(),
+            "s_p": data[:, 15].copy(),
+            "deviation_m": data[:, 16].copy(),
+            "flags": data[:, 17].astype(np.uint16),
+            "authority": data[:, 18].astype(np.int8),
+            "swing_rad": data[:, 19].copy(),
+        }
+        if crane is not None:
+            out["tip_p"], out["tip_v"] = tip_motion(crane, out["q"], out["qd"])
+        return out
+
+
+def tip_motion(crane: Crane, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tip positions ``fk(q)`` (N, 3) (m) and velocities ``J(q) qd`` (N, 3) (m/s) from joint samples (N, 4)."""
+    q = np.asarray(q, dtype=np.float64).reshape(-1, 4)
+    qd = np.asarray(qd, dtype=np.float64).reshape(-1, 4)
+    if q.shape[0] == 0:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    p = crane.fk_batch(q)
+    v = (crane.fk_batch(q + _FD_EPS * qd) - crane.fk_batch(q - _FD_EPS * qd)) / (2.0 * _FD_EPS)
+    return p, v
+
+
+def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str, Any] | None = None) -> Path:
+    """Write a run log to HDF5 atomically (layout in docs/runtime.md).
+
+    Parameters
+    ----------
+    path : str or Path
+    log : RunLog
+    crane : Crane
+        For the tip position and velocity datasets.
+    summary : dict, optional
+        Run summary (JSON-serialisable), stored as the ``summary`` attribute.
+
+    Returns
+    -------
+    Path
+    """
+    path = Path(path)
+    arrays = log.arrays(crane)
+    with atomic_output(path) as tmp:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["schema"] = RUNLOG_SCHEMA
+            f.attrs["schema_version"] = RUNLOG_VERSION
+            f.attrs["rate_hz"] = _rate(arrays["t"])
+            f.attrs["crane"] = crane.name
+            f.attrs["columns"] = json.dumps(list(arrays))
+            for key, value in log.attrs.items():
+                f.attrs[key] = _attr(value)
+            if summary is not None:
+                f.attrs["summary"] = json.dumps(summary, default=json_default)
+            for key, value in arrays.items():
+                big = value.size >= 256
+                f.create_dataset(key, data=value, compression="gzip" if big else None, shuffle=big,
+                                 chunks=True if big else None)
+            ev = f.create_group("events")
+            ev.create_dataset("t", data=np.array([float(e.t) for e in log.events], dtype=np.float64))
+            str_type = h5py.string_dtype()
+            ev.create_dataset("name", data=np.array([e.name for e in log.events], dtype=object), dtype=str_type)
+            ev.create_dataset(
+                "detail", data=np.array([getattr(e, "detail", "") for e in log.events], dtype=object), dtype=str_type
+            )
+    return path
+
+
+def read_runlog(path: str | Path) -> dict[str, Any]:
+    """Read a run log written by :func:`write_runlog`.
+
+    Returns
+    -------
+    dict
+        The datasets by name (see :meth:`RunLog.arrays`), ``events`` (list of dict with
+        ``t``, ``name``, ``detail``), ``attrs`` (dict; ``summary`` decoded from JSON).
+
+    Raises
+    ------
+    LibraryFileError
+        Not an HDF5 file, not a motionlib run log, or a newer schema version.
+    """
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
+    with f:
+        if f.attrs.get("schema") != RUNLOG_SCHEMA:
+            raise LibraryFileError(f"{path}: not a motionlib run log (schema attribute missing or wrong)")
+        version = int(f.attrs.get("schema_version", -1))
+        if version > RUNLOG_VERSION:
+            raise LibraryFileError(f"{path}: run-log schema version {version} is newer than this motionlib reads")
+        out: dict[str, Any] = {k: f[k][()] for k in f if isinstance(f[k], h5py.Dataset)}
+        ev = f["events"]
+        names = [n.decode() if isinstance(n, bytes) else str(n) for n in ev["name"][()]]
+        details = [n.decode() if isinstance(n, bytes) else str(n) for n in ev["detail"][()]]
+        out["events"] = [
+            {"t": float(t), "name": n, "detail": d} for t, n, d in zip(ev["t"][()], names, details, strict=True)
+        ]
+        attrs = {}
+        for key, value in f.attrs.items():
+            if isinstance(value, bytes):
+                value = value.decode()
+            if isinstance(value, np.generic):
+                value = value.item()
+            if key == "summary":
+                value = json.loads(value)
+            attrs[key] = value
+        out["attrs"] = attrs
+    return out
+
+
+def _rate(t: np.ndarray) -> float:
+    if t.size < 2:
+        return math.nan
+    return float(1.0 / np.median(np.diff(t)))
+
+
+def _attr(value: Any) -> Any:
+    if isinstance(value, (bool, int, float, str, np.integer, np.floating, np.bool_)):
+        return value
+    return json.dumps(value, default=json_default)
+
+
