@@ -37,12 +37,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from selection import STARTS, synthetic_library  # noqa: E402 (benchmarks/selection.py)
 
 from motionlib import Crane, Library  # noqa: E402
-from motionlib.library.build import LogProgress, build_library  # noqa: E402
+from motionlib.library.build import build_library  # noqa: E402
 from motionlib.library.selection import SelectionIndex  # noqa: E402
 from motionlib.library.spec import LibrarySpec  # noqa: E402
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter  # noqa: E402
 from motionlib.model.scene import Scene  # noqa: E402
 from motionlib.planning.trajectory import Trajectory  # noqa: E402
+from motionlib.progress import LogProgress  # noqa: E402
 
 
 def _small_spec(shipped: str, n: int, out_dir: Path) -> Path:
@@ -72,7 +73,7 @@ def bench_build(n: int, tmp: Path) -> list[tuple]:
         for workers in (1, 2):
             out = tmp / f"{shipped}.{workers}.h5"
             t0 = time.perf_counter()
-            summary = build_library(spec, out, workers=workers, progress=LogProgress(open(os.devnull, "w")))
+            summary = build_library(spec, out, workers=workers, progress=LogProgress("building", open(os.devnull, "w")))
             wall = time.perf_counter() - t0
             lib = Library.open(out)
             plan_s = sum(e.plan_time_s for e in lib.entries)

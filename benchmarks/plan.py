@@ -111,14 +111,14 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int) -> list[dict]:
         res = planners[loaded].plan(scene.start(start), goal)
         total = time.perf_counter() - t0
         row = {"scene": scene.name, "query": name, "ok": res.ok, "total_s": total, "reason": res.reason}
-        row.update({f"{k}_s": v.get("time_s", float("nan")) for k, v in res.stages.items()})
+        row.update({f"{k}_s": v.time_s for k, v in res.stages.items()})
         if res.ok:
             d = res.trajectory.duration_s
             row.update(
                 duration_s=d,
                 const_ratio=d / res.baselines["constant"] if res.baselines["constant"] else float("nan"),
                 linear_ratio=d / res.baselines["linear"] if res.baselines["linear"] else float("nan"),
-                profile=res.trajectory.attrs["profile"],
+                profile=res.trajectory.info.profile,
                 slew_ratio=d / slew_bound_s(crane, res.trajectory),
                 pp_ratio=phase_plane_ratio(crane, res.trajectory),
             )

@@ -64,7 +64,7 @@ class _Timed:
 
 
 def _setup(crane, scene, checkers, traj, mode, operator, target, seed=0):
-    loaded = bool(traj.attrs["loaded"])
+    loaded = traj.info.loaded
     ctl = SharedController(crane, mode, obstacle_guard=ObstacleGuard(checkers[loaded], loaded=loaded))
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0])

@@ -6,42 +6,17 @@ from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
-from scipy.optimize import minimize
 
 from motionlib.fileio import atomic_output
 from motionlib.model.crane_model import JOINT_NAMES
 from motionlib.model.kinematics import Crane
+from motionlib.model.reach import max_reach
 from motionlib.model.urdf import crane_to_urdf
 
+from .options import crane_option, json_option
 from .output import emit_json
 
-CRANE_OPTION_HELP = "Shipped crane name (lab, forwarder) or path to a crane .yaml file."
 _UNIT = {"revolute": "rad", "prismatic": "m"}
-
-
-def max_reach(crane: Crane) -> float:
-    """Largest horizontal distance (m) of the tip from the slewing axis within the joint limits.
-
-    Maximises ``boom_pivot_offset + rho(q2, q3, q4)`` (see
-    :meth:`Crane.planar_fk`) over the joint-limit box with L-BFGS-B from a
-    3 x 3 x 2 grid of starts.
-    """
-    lo, hi = crane.q_min[1:], crane.q_max[1:]
-
-    def neg_radial(x: np.ndarray) -> float:
-        rho, _ = crane.planar_fk(x[0], x[1], x[2])
-        return -float(rho)
-
-    best = -np.inf
-    for q2 in np.linspace(lo[0], hi[0], 3):
-        for q3 in np.linspace(lo[1], hi[1], 3):
-            for q4 in (lo[2], hi[2]):
-                res = minimize(
-                    neg_radial, np.array([q2, q3, q4]), method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True))
-                )
-                best = max(best, -float(res.fun))
-    return crane.model.boom_pivot_offset + best
 
 
 def crane_summary(crane: Crane) -> dict[str, Any]:
@@ -116,8 +91,8 @@ def crane() -> None:
 
 
 @crane.command()
-@click.option("--crane", "crane_name", default="forwarder", show_default=True, help=CRANE_OPTION_HELP)
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@crane_option()
+@json_option
 def show(crane_name: str, as_json: bool) -> None:
     """Show a crane's kinematics, joint limits, hydraulics and reach."""
     summary = crane_summary(Crane.load(crane_name))
@@ -128,16 +103,26 @@ def show(crane_name: str, as_json: bool) -> None:
 
 
 @crane.command("export-urdf")
-@click.option("--crane", "crane_name", default="forwarder", show_default=True, help=CRANE_OPTION_HELP)
+@crane_option()
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), help="Output file (default: stdout).")
-def export_urdf(crane_name: str, output: Path | None) -> None:
-    """Write the crane as URDF (see docs/crane-format.md for what is approximated)."""
-    text = crane_to_urdf(Crane.load(crane_name))
-    if output is None:
+@json_option
+def export_urdf(crane_name: str, output: Path | None, as_json: bool) -> None:
+    """Write the crane as URDF (see docs/crane-format.md for what is approximated).
+
+    With --json, print one object: the crane, the output file (null for none) and, without
+    -o, the URDF text.
+    """
+    crane = Crane.load(crane_name)
+    text = crane_to_urdf(crane)
+    if output is not None:
+        write_atomic(output, text)
+    if as_json:
+        emit_json({"crane": crane.name, "output": str(output) if output else None, "bytes": len(text.encode()),
+                   **({} if output else {"urdf": text})})
+    elif output is None:
         click.echo(text, nl=False)
-        return
-    write_atomic(output, text)
-    click.echo(f"wrote {output}", err=True)
+    else:
+        click.echo(f"wrote {output}", err=True)
 
 
 def write_atomic(path: Path, text: str) -> None:

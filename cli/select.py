@@ -10,6 +10,9 @@ import math
 
 import click
 
+from .options import json_option, vector_option
+from .output import emit_json
+
 
 def _finite_or_none(x: float) -> float | None:
     return x if math.isfinite(x) else None
@@ -17,8 +20,8 @@ def _finite_or_none(x: float) -> float | None:
 
 @click.command()
 @click.argument("library", type=click.Path(dir_okay=False))
-@click.option("--target", required=True, help="Estimated target tip point x,y,z (m, base frame).")
-@click.option("--current", help="Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: starts not filtered.")
+@vector_option("target", 3, "Estimated target tip point x,y,z (m, base frame).", required=True)
+@vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: starts not filtered.")
 @click.option(
     "--utility", type=click.Choice(["time", "energy", "robust"]), default="time", show_default=True,
     help="time: fastest; energy: least oil; robust: least expected time incl. manual correction (003 eq. 5.7).",
@@ -29,22 +32,18 @@ def _finite_or_none(x: float) -> float | None:
 @click.option("--v-manual", type=float, help="robust: manual correction speed (m/s) [default 0.5].")
 @click.option("-n", "--max-candidates", default=5, show_default=True, type=click.IntRange(min=1))
 @click.option("--crane", help="Refuse the library unless it was built for this crane (name or file).")
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@json_option
 def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candidates, crane, as_json) -> None:
     """Rank the trajectories of LIBRARY that end near TARGET (and start near CURRENT), best first."""
-    from motionlib.checks import parse_csv_floats
     from motionlib.library.store import Library
 
-    target_p = parse_csv_floats(target, 3, "--target")
-    current_q = parse_csv_floats(current, 4, "--current") if current else None
+    target_p, current_q = target, current
     kw = {"max_candidates": max_candidates}
     for name, value in (("L1", l1), ("L2", l2), ("sigma_m", sigma), ("v_manual_m_s", v_manual)):
         if value is not None:
             kw[name] = value
     lib = Library.open(library, crane=crane)
-    result = lib.select(target_p, current_q, utility, **kw)
-    if not result.ok:
-        raise click.ClickException(f"{library}: {result.message}")
+    result = lib.select(target_p, current_q, utility, **kw).raise_for_status(str(library))
     candidates = [
         {
             "index": c.index,
@@ -60,8 +59,6 @@ def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candi
         for c in result.candidates
     ]
     if as_json:
-        from .output import emit_json
-
         emit_json(
             {
                 "library": str(library),

@@ -6,8 +6,7 @@ from pathlib import Path
 
 import click
 
-from motionlib.viz.viewer import ViewOptions, write_view
-
+from .options import json_option
 from .output import emit_json
 
 
@@ -22,7 +21,7 @@ from .output import emit_json
     type=click.Path(dir_okay=False),
     help="For a run log: the library it was executed from [default: the path the run log records].",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@json_option
 def view(file, output, rate_hz, library, as_json) -> None:
     """Write an HTML page (plotly, works offline) showing the crane, the scene and the motions of FILE.
 
@@ -31,6 +30,8 @@ def view(file, output, rate_hz, library, as_json) -> None:
     duration and shows its path on hover or click; a run log (motionlib execute
     --log) is animated with the tip's path coloured by the automation's share c_a.
     """
+    from motionlib.viz.viewer import ViewOptions, write_view
+
     output = Path(output) if output else Path(file).with_suffix(".html")
     result = write_view(file, output, ViewOptions(rate_hz=rate_hz, library=library))
     summary = {

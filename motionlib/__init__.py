@@ -40,10 +40,12 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from .errors import (
+    ExecutionError,
     InputError,
     LibraryFileError,
     ModelFileError,
     MotionlibError,
+    NoSelectionError,
     PlanningError,
     UnreachableError,
 )
@@ -77,11 +79,34 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    *_EXPORTS,
+    "plan",
+    "build_library",
+    "execute",
+    "run_experiment",
+    "write_view",
+    "Crane",
+    "Capsule",
+    "Scene",
+    "LibrarySpec",
+    "Library",
+    "Trajectory",
+    "load_plan",
+    "PlanOptions",
+    "PlanResult",
+    "PlanStatus",
+    "BuildSummary",
+    "SelectionResult",
+    "Mode",
+    "RunResult",
+    "ExecuteOptions",
+    "ExperimentConfig",
+    "ViewOptions",
+    "ExecutionError",
     "InputError",
     "LibraryFileError",
     "ModelFileError",
     "MotionlibError",
+    "NoSelectionError",
     "PlanningError",
     "UnreachableError",
 ]

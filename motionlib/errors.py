@@ -1,7 +1,9 @@
 """The exception hierarchy of motionlib.
 
 Every error the package raises on purpose derives from :class:`MotionlibError`,
-so a caller (the CLI above all) can catch one class and print one line.
+so a caller (the CLI above all) can catch one class and print one line. Each also
+derives from the built-in exception a Python user would expect (``ValueError`` for
+bad input, ``RuntimeError`` for a failed computation, ``OSError`` for a bad file).
 """
 
 from __future__ import annotations
@@ -26,8 +28,8 @@ class UnreachableError(MotionlibError, ValueError):
     """A tip position cannot be reached; the message says why."""
 
 
-class PlanningError(MotionlibError):
-    """A planning stage failed.
+class PlanningError(MotionlibError, RuntimeError):
+    """A planning stage failed (raised by ``raise_for_status()`` of a planning result).
 
     Parameters
     ----------
@@ -44,5 +46,16 @@ class PlanningError(MotionlibError):
         self.reason = reason
 
 
-class LibraryFileError(MotionlibError):
-    """A motion-library or trajectory file is missing, corrupt or incompatible."""
+class LibraryFileError(MotionlibError, OSError):
+    """A motion-library, plan or run-log file is missing, corrupt or incompatible.
+
+    The message names the file and the object or attribute.
+    """
+
+
+class NoSelectionError(MotionlibError, LookupError):
+    """No library trajectory serves a target (raised by ``SelectionResult.raise_for_status()``)."""
+
+
+class ExecutionError(MotionlibError, RuntimeError):
+    """A run of the shared-control loop did not end as asked (raised by ``RunResult.raise_for_status()``)."""

@@ -1,7 +1,8 @@
-"""Writing files safely: atomic replacement and JSON for numpy values."""
+"""File conventions: atomic replacement, JSON for numpy values, and the encoding of HDF5 attributes."""
 
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from collections.abc import Iterator
@@ -10,6 +11,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .errors import LibraryFileError
 
 
 def json_default(obj: Any) -> Any:
@@ -42,3 +45,75 @@ def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+# ------------------------------------------------------------------ HDF5 attributes
+#: Prefix of an HDF5 string attribute that holds JSON (lists and records; readable with ``h5dump``).
+JSON_ATTR_PREFIX = "json:"
+
+
+def encode_attr(value: Any) -> Any:
+    """An HDF5 attribute value: bools, numbers and strings as they are, anything else as ``"json:" + JSON``."""
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | float | np.integer | np.floating | str):
+        return value
+    return JSON_ATTR_PREFIX + json.dumps(value, default=json_default, sort_keys=True)
+
+
+def decode_attr(value: Any, where: str) -> Any:
+    """Inverse of :func:`encode_attr`: Python values from an HDF5 attribute.
+
+    Raises
+    ------
+    LibraryFileError
+        A ``json:`` attribute does not hold valid JSON; the message starts with ``where``.
+    """
+    if isinstance(value, bytes):
+        try:
+            value = value.decode()
+        except UnicodeDecodeError as exc:
+            raise LibraryFileError(f"{where}: expected UTF-8 text") from exc
+    if isinstance(value, str) and value.startswith(JSON_ATTR_PREFIX):
+        try:
+            return json.loads(value[len(JSON_ATTR_PREFIX) :])
+        except json.JSONDecodeError as exc:
+            raise LibraryFileError(f"{where}: expected JSON after 'json:' ({exc.msg})") from exc
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def read_json_attr(attrs: Any, key: str, where: str) -> Any:
+    """The JSON attribute ``key`` of an HDF5 attribute mapping; ``where`` names the file and object.
+
+    Raises
+    ------
+    LibraryFileError
+        The attribute is missing, is not a ``json:`` string, or does not hold valid JSON.
+    """
+    try:
+        raw = attrs.get(key)
+    except (OSError, RuntimeError, KeyError) as exc:  # h5py reports damaged attribute storage this way
+        raise LibraryFileError(f"{where}: attribute {key!r} is not readable ({exc})") from exc
+    if isinstance(raw, bytes):
+        raw = raw.decode(errors="replace")
+    if not isinstance(raw, str) or not raw.startswith(JSON_ATTR_PREFIX):
+        raise LibraryFileError(f"{where}: attribute {key!r} is missing or not JSON")
+    return decode_attr(raw, f"{where}: attribute {key!r}")
+
+
+@contextmanager
+def hdf5_errors(message: str) -> Iterator[None]:
+    """Turn h5py's errors inside the block into :class:`LibraryFileError` ``"<message> (<h5py's words>)"``.
+
+    h5py reports unreadable or damaged files as ``OSError`` and damaged objects or attributes
+    as ``KeyError``, ``RuntimeError`` or ``ValueError``; the package's own
+    :class:`LibraryFileError` passes through unchanged.
+    """
+    try:
+        yield
+    except LibraryFileError:
+        raise
+    except (OSError, KeyError, RuntimeError, ValueError) as exc:
+        raise LibraryFileError(f"{message} ({exc})") from exc

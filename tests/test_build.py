@@ -28,9 +28,10 @@ from motionlib_cli.main import cli
 
 from motionlib import Library
 from motionlib.errors import InputError, LibraryFileError
-from motionlib.library.build import LogProgress, RichProgress, build_library, library_is_current, parts_dir_for
+from motionlib.library.build import build_library, library_is_current, parts_dir_for
 from motionlib.library.spec import LibrarySpec
 from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.progress import LogProgress, RichProgress
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -100,7 +101,7 @@ def reference(tiny_spec, tmp_path_factory):
     """The tiny library built in-process on a local pool of 2 workers."""
     out = tmp_path_factory.mktemp("ref") / "tiny.h5"
     log = io.StringIO()
-    summary = build_library(LibrarySpec.load(tiny_spec), out, workers=2, progress=LogProgress(log))
+    summary = build_library(LibrarySpec.load(tiny_spec), out, workers=2, progress=LogProgress("building", log))
     return out, summary, log.getvalue()
 
 
@@ -118,7 +119,7 @@ def test_reference_build(reference, tiny_spec):
     # plain log lines, one per entry, with the counters
     lines = [ln for ln in log.splitlines() if ln.startswith("[")]
     assert len(lines) == N_ENTRIES and lines[-1].startswith(f"[{N_ENTRIES}/{N_ENTRIES}] {summary.n_failed} failed")
-    assert "FAILED query" in log and "ETA" in lines[0]
+    assert "failed query" in log and "ETA" in lines[0]
 
 
 def test_entries_equal_independent_plans(reference):
@@ -179,7 +180,7 @@ def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
 
     resumed = subprocess.run([*cmd, "--resume", "--workers", "2"], capture_output=True, text=True, timeout=300)
     assert resumed.returncode == 0, resumed.stderr
-    assert f"{finished} checkpointed" in resumed.stderr
+    assert f"{finished} done before" in resumed.stderr
     assert f"{N_ENTRIES - finished} planned in this run" in resumed.stdout
     assert not parts.exists()
     assert content_digest(out) == content_digest(reference[0])
@@ -209,9 +210,9 @@ def test_resume_refuses_checkpoints_of_another_spec(tiny_spec, tmp_path):
     parts.mkdir()
     (parts / "manifest.json").write_text(json.dumps({"spec_digest": "0" * 64}))
     with pytest.raises(LibraryFileError, match="checkpoints of a different spec"):
-        build_library(LibrarySpec.load(tiny_spec), out, resume=True, progress=LogProgress(io.StringIO()))
+        build_library(LibrarySpec.load(tiny_spec), out, resume=True, progress=LogProgress("building", io.StringIO()))
     with pytest.raises(InputError, match="rerun with --resume"):
-        build_library(LibrarySpec.load(tiny_spec), out, progress=LogProgress(io.StringIO()))
+        build_library(LibrarySpec.load(tiny_spec), out, progress=LogProgress("building", io.StringIO()))
     assert sorted(p.name for p in parts.iterdir()) == ["manifest.json"] and not out.exists()
 
 
@@ -266,7 +267,7 @@ def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
     with dask_cluster(tmp_path) as address:
         assert address.startswith("tcp://127.0.0.1:")
         spec = LibrarySpec.load(tiny_spec)
-        summary = build_library(spec, out, scheduler=address, progress=LogProgress(io.StringIO()))
+        summary = build_library(spec, out, scheduler=address, progress=LogProgress("building", io.StringIO()))
     assert summary.n_planned == N_ENTRIES and summary.n_ok == reference[1].n_ok
     assert Library.open(out).metadata("build")["executor"] == f"dask {address}"
     assert content_digest(out) == content_digest(reference[0])
@@ -275,14 +276,11 @@ def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
 def test_rich_progress_on_a_terminal():
     from rich.console import Console
 
-    from motionlib.library.build import EntryOutcome
-
     buf = io.StringIO()
-    progress = RichProgress(Console(file=buf, force_terminal=True, width=150))
-    entries = LibrarySpec.from_dict(TINY).entries()
+    progress = RichProgress("building", Console(file=buf, force_terminal=True, width=150))
     progress.start(N_ENTRIES, 2, 0)
-    progress.update(entries[2], EntryOutcome(2, "", "", 0.3, None, None))
-    progress.update(entries[3], EntryOutcome(3, "path", "no path found", 0.3, None, None))
+    progress.advance(True, "entry 2 ok")
+    progress.advance(False, "failed path: no path found")
     progress.close()
     text = buf.getvalue()
     assert "4/8" in text and "1 failed" in text and "ETA" in text and "/s" in text

@@ -23,7 +23,7 @@ from motionlib.library.selection import DEFAULT_START_WEIGHTS
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter, entry_id
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.planning.trajectory import Trajectory
+from motionlib.planning.trajectory import StageReport, Trajectory, TrajectoryInfo
 
 ROOT = Path(__file__).resolve().parents[1]
 LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
@@ -53,17 +53,22 @@ def synthetic_trajectory(crane: Crane, q0: np.ndarray, q1: np.ndarray, duration_
         spline_breakpoints=path_s[[0, n // 2, -1]],
         spline_coefficients=np.zeros((4, 2, 3)),
         telescope_control_points=np.full(6, q0[3]),
-        attrs={
-            "duration_s": duration_s,
-            "path_length_m": float(path_s[-1]),
-            "energy_m3": float(np.abs(dq) @ np.array([1e-3, 2e-3, 2e-3, 1e-3])),
-            "min_clearance_m": 0.2,
-            "crane": crane.name,
-            "loaded": False,
-            "seed": 1,
-            "start_q": q0.tolist(),
-            "stages": {"path": {"status": "ok", "time_s": 0.1}},
-        },
+        info=TrajectoryInfo(
+            duration_s=duration_s,
+            path_length_m=float(path_s[-1]),
+            energy_m3=float(np.abs(dq) @ np.array([1e-3, 2e-3, 2e-3, 1e-3])),
+            min_clearance_m=0.2,
+            crane=crane.name,
+            crane_digest=crane.model.digest,
+            scene="synthetic",
+            scene_digest="",
+            start_q=tuple(q0.tolist()),
+            goal_p=tuple(tips[-1].tolist()),
+            loaded=False,
+            seed=1,
+            profile="constant",
+            stages={"path": StageReport("ok", 0.1)},
+        ),
     )
 
 
@@ -123,7 +128,7 @@ def test_round_trip(synthetic):
         got, want = lib.trajectory(i), written["trajs"][i]
         for key in ("t", "q", "qd", "qdd", "path_tip", "spline_coefficients", "telescope_control_points"):
             np.testing.assert_array_equal(getattr(got, key), getattr(want, key))
-        assert got.attrs["stages"] == want.attrs["stages"] and got.attrs["duration_s"] == want.attrs["duration_s"]
+        assert got.info.stages == want.info.stages and got.info.duration_s == want.info.duration_s
     records = lib.entries
     assert [r.key for r in records] == [r.key for r in written["records"]]
     assert [r.row for r in records if r.ok] == list(range(len(lib)))
@@ -136,7 +141,7 @@ def test_layout_is_plain_hdf5(synthetic):
     path, written = synthetic
     crane = Crane.load("lab")
     with h5py.File(path, "r") as f:
-        assert f.attrs["schema"] == "motionlib.library.store" and f.attrs["schema_version"] == 1
+        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 1
         assert json.loads(f.attrs["crane_model"][5:]) == json.loads(json.dumps(crane.model.to_dict()))
         assert json.loads(f.attrs["scene_model"][5:])["name"] == "log-loading"
         assert f.attrs["crane_digest"] == crane.model.digest
@@ -309,7 +314,7 @@ def _not_hdf5(src: Path, dst: Path) -> None:
 def _other_hdf5(src: Path, dst: Path) -> None:
     with h5py.File(dst, "w") as f:
         f["q"] = np.zeros((3, 4))
-        f.attrs["schema"] = "motionlib.planning.trajectory"
+        f.attrs["schema"] = "motionlib.trajectory"
 
 
 def _newer(src: Path, dst: Path) -> None:
@@ -328,7 +333,7 @@ BAD_FILES = [
     (_truncated, r"truncated or corrupt"),
     (_corrupted, r"truncated or corrupt"),
     (_not_hdf5, r"truncated or corrupt"),
-    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.planning.trajectory'"),
+    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.trajectory'"),
     (_newer, r"schema version 2 is newer than this motionlib reads \(1\)"),
     (_missing_index, r"/index/end_p is missing"),
 ]

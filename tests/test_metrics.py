@@ -179,7 +179,7 @@ def test_run_summary_fields(lab):
     log = _fake_log(lab)
     arr = log.arrays(lab)
     target = arr["tip_p"][-1] + np.array([0.0, 0.03, 0.04])
-    s = run_summary(arr, log.events, target, cycle_time_s=1.9)
+    s = run_summary(arr, log.events, target, cycle_time_s=1.9).to_dict()
     assert s["final_error_m"] == pytest.approx(0.05, abs=1e-12)
     assert s["handover_time_s"] == 1.25 and s["arrival_time_s"] is None
     assert s["max_deviation_m"] is None  # no trajectory given

@@ -103,14 +103,14 @@ def test_never_slower_than_baselines(results):
         for name, value in res.baselines.items():
             if value is not None:
                 assert res.trajectory.duration_s <= value + 1e-9, (start, goal, name)
-        assert res.trajectory.duration_s == min(res.stages["timing"]["durations_s"].values())
+        assert res.trajectory.duration_s == min(res.stages["timing"].details["durations_s"].values())
 
 
 def test_optimised_profile_beats_baselines_on_velocity_limited_time(results):
     """IPOPT's objective (003 eq. 4.12) is at most that of its own starting profile and of the baselines."""
     gains = []
     for _, _, _, res in results:
-        durations = res.stages["timing"]["durations_s"]
+        durations = res.stages["timing"].details["durations_s"]
         if "optimised" in durations and "constant" in durations:
             gains.append(durations["optimised"] / durations["constant"])
     assert gains and max(gains) <= 1.0 + 1e-9

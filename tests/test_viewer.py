@@ -36,8 +36,9 @@ from PIL import Image
 
 from motionlib.errors import LibraryFileError
 from motionlib.library.store import Library
+from motionlib.model.embedded import embedded_models
 from motionlib.model.kinematics import Crane
-from motionlib.model.scene import Obstacle, Scene
+from motionlib.model.scene import Obstacle
 from motionlib.planning.trajectory import load_plan
 from motionlib.runtime.control_types import Authority
 from motionlib.runtime.runlog import read_runlog
@@ -45,7 +46,6 @@ from motionlib.viz.meshes import CapsuleMesh, box_mesh, hull_mesh, local_mesh, o
 from motionlib.viz.viewer import (
     ARM_COLOUR,
     ViewOptions,
-    crane_from_record,
     file_kind,
     frame_times,
     runlog_view,
@@ -184,17 +184,15 @@ def test_frame_times():
 
 def test_trajectory_figure_frames(plan_file):
     with h5py.File(plan_file, "r") as f:
-        crane_record = json.loads(f.attrs["crane_model"][5:])
-        scene = Scene.from_dict(json.loads(f.attrs["scene_model"][5:]), crane=Crane.load("lab"))
-    crane = crane_from_record(crane_record)
-    assert crane.model == Crane.load("lab").model
+        crane, scene = embedded_models(f.attrs, str(plan_file))
+    assert crane.model == Crane.load("lab").model and scene.name == "log-loading"
     traj = load_plan(plan_file)
     fig = trajectory_figure(crane, scene, traj, ViewOptions(rate_hz=10))
     n = int(np.ceil(traj.duration_s * 10 - 1e-9)) + 1
     assert len(fig.frames) == n == len(fig.layout.sliders[0].steps)
     tips = np.array([[fr.data[0].x[0], fr.data[0].y[0], fr.data[0].z[0]] for fr in fig.frames])
-    np.testing.assert_allclose(tips[0], crane.fk(traj.attrs["start_q"]), atol=1e-9)
-    np.testing.assert_allclose(tips[-1], traj.attrs["goal_p"], atol=2e-3)
+    np.testing.assert_allclose(tips[0], crane.fk(traj.info.start_q), atol=1e-9)
+    np.testing.assert_allclose(tips[-1], traj.info.goal_p, atol=2e-3)
     steps = np.linalg.norm(np.diff(tips, axis=0), axis=1)
     assert steps.max() < 0.1 * np.abs(crane.qd_min).max() * 10  # 0.1 s apart: no jumps
     # The arm mesh of a frame surrounds the boom, jib and telescope capsules at that time.
@@ -217,7 +215,7 @@ def test_view_cli_writes_a_self_contained_page(plan_file, tmp_path):
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     duration = float(h5py.File(plan_file, "r").attrs["duration_s"])
-    assert report["kind"] == "motionlib.planning.trajectory" and report["output"] == str(out)
+    assert report["kind"] == "motionlib.trajectory" and report["output"] == str(out)
     assert report["frames"] == int(np.ceil(duration * 10 - 1e-9)) + 1
     html = out.read_text()
     assert report["size_bytes"] == out.stat().st_size
@@ -435,7 +433,7 @@ def test_library_view(library_file, tmp_path):
     lib = Library.open(library_file)
     out = tmp_path / "library.html"
     result = write_view(library_file, out)
-    assert result.kind == "motionlib.library.store" and result.n_frames == 0
+    assert result.kind == "motionlib.library" and result.n_frames == 0
     with browser() as b:
         b.open(out.as_uri(), VIEWPORT)
         b.wait_for(READY, 60)
@@ -470,7 +468,7 @@ def test_runlog_view(runlog_file, library_file, tmp_path):
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)
     duration = log["t"][-1] - log["t"][0]
-    assert report["kind"] == "motionlib.runtime.runlog"
+    assert report["kind"] == "motionlib.runlog"
     assert report["frames"] == int(np.ceil(duration * 10 - 1e-9)) + 1
     # The frames' tip is the logged tip (the log's tip_p) at the frame times, every 0.1 s = 20 samples.
     view = runlog_view(runlog_file, ViewOptions())

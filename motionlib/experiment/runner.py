@@ -21,13 +21,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import ExecutionError, InputError
 from ..library.build import build_library, default_workers, library_is_current, parts_dir_for
 from ..library.spec import LibrarySpec
+from ..progress import Progress, make_progress
 from ..runtime.control_types import Mode
 from .panel import PANEL, panel_operator
+from .report import write_outputs
 from .series import ExperimentContext, RunOptions, SeriesResult, run_series
-from .stats import MODES
+from .stats import MODES, Analysis, analyse
 
 DEFAULT_SPEC = Path(__file__).resolve().parents[2] / "libraries" / "log-loading.yaml"
 """The log-loading library spec shipped with motionlib (``libraries/log-loading.yaml``)."""
@@ -200,7 +202,7 @@ class LibraryStatus:
 
 
 def ensure_library(
-    spec_path: str | Path, out_dir: str | Path, workers: int | None = None, progress: Any = None
+    spec_path: str | Path, out_dir: str | Path, workers: int | None = None, progress: Progress | None = None
 ) -> LibraryStatus:
     """The library of ``spec_path`` in ``out_dir`` (``<spec name>.h5``): reused when up to date, else built.
 
@@ -218,3 +220,107 @@ def ensure_library(
         f"{summary.n_ok} of {summary.n_entries} entries ok, {summary.wall_time_s:.1f} s"
     )
     return LibraryStatus(out, True, summary.wall_time_s, note)
+
+
+# ====================================================================== the whole job
+@dataclass
+class ExperimentReport:
+    """Result of :func:`log_loading_experiment`.
+
+    Attributes
+    ----------
+    result : ExperimentResult
+        Every series.
+    analysis : Analysis
+        Table 1, Figs. 8-10 and the findings (:func:`motionlib.experiment.stats.analyse`).
+    library : LibraryStatus
+        Where the library came from.
+    out_dir : Path
+    files : list of Path
+        The tables, figures, report.md and experiment.json written to ``out_dir``.
+    wall_s : float
+        Wall time of the whole job (s).
+    """
+
+    result: ExperimentResult
+    analysis: Analysis
+    library: LibraryStatus
+    out_dir: Path
+    files: list[Path]
+    wall_s: float
+
+    @property
+    def unfinished(self) -> list[SeriesResult]:
+        """Series that failed or hit the time limit before their last release."""
+        return [r for r in self.result.results if r.error or not r.finished]
+
+    def raise_for_status(self) -> ExperimentReport:
+        """Return self when every series finished, else raise :class:`ExecutionError`."""
+        if self.unfinished:
+            n = len(self.result.results)
+            raise ExecutionError(
+                f"{len(self.unfinished)} of {n} series did not finish (see {self.out_dir / 'report.md'})"
+            )
+        return self
+
+
+def log_loading_experiment(
+    config: ExperimentConfig | None = None,
+    out_dir: str | Path = "log-loading-experiment",
+    *,
+    library: str | Path | None = None,
+    spec: str | Path | None = None,
+    progress: Progress | None = None,
+) -> ExperimentReport:
+    """000's log-loading experiment (sections 3-4) in simulation, from library to report.
+
+    Builds (or reuses) the library of ``spec`` in ``out_dir`` unless ``library`` is given,
+    runs every series of ``config`` (:func:`run_experiment`), analyses them against 000's
+    Table 1 and Figs. 8-10 and writes the report (:func:`motionlib.experiment.report.write_outputs`).
+
+    Parameters
+    ----------
+    config : ExperimentConfig, optional
+    out_dir : str or Path
+        Output directory (tables, figures, report.md, experiment.json).
+    library : str or Path, optional
+        A log-loading motion library to use as it is.
+    spec : str or Path, optional
+        Library spec to build without ``library`` (default ``libraries/log-loading.yaml``).
+    progress : Progress, optional
+        Receives the library build's and the series' progress (default :func:`make_progress`).
+
+    Returns
+    -------
+    ExperimentReport
+    """
+    config = config or ExperimentConfig()
+    out = Path(out_dir)
+    t0 = time.perf_counter()
+    if library is not None:
+        status = LibraryStatus(Path(library), False, 0.0, f"{library} (given)")
+    else:
+        spec_path = Path(spec) if spec is not None else DEFAULT_SPEC
+        if not spec_path.is_file():
+            raise InputError(f"{spec_path}: no such library spec (give a spec or a library)")
+        status = ensure_library(spec_path, out, workers=config.workers, progress=progress)
+    ctx = ExperimentContext(status.path, config.run)  # a bad library or scene fails here, before any worker starts
+    if config.cycles is not None and config.cycles > len(ctx.scenario.logs):
+        raise InputError(f"cycles: the scene has {len(ctx.scenario.logs)} logs, got {config.cycles}")
+    bar = progress or make_progress("series")
+    bar.log(status.note)
+    bar.start(len(config.keys()))
+
+    def done(res: SeriesResult) -> None:
+        ok = not res.error and res.finished
+        what = f"error: {res.error}" if res.error else ("" if res.finished else "time limit before the last release")
+        bar.advance(ok, f"{res.operator} {res.mode} series {res.series}: {len(res.cycles)} cycles, "
+                        f"{res.simulated_s:.0f} s simulated" + (f", {what}" if what else ""))
+
+    try:
+        result = run_experiment(status.path, config, done)
+    finally:
+        bar.close()
+    analysis = analyse(result.cycles, result.transitions)
+    files = write_outputs(out, result, analysis, status.note, status.build_s if status.built else None, ctx.scene)
+    return ExperimentReport(result, analysis, status, out, files, time.perf_counter() - t0)

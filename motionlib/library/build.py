@@ -39,13 +39,12 @@ import platform
 import re
 import shutil
 import socket
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import h5py
 import numpy as np
@@ -53,6 +52,7 @@ import numpy as np
 from ..errors import InputError, LibraryFileError, PlanningError
 from ..fileio import atomic_output
 from ..planning.trajectory import Trajectory, write_trajectory
+from ..progress import Progress, make_progress
 from .spec import Entry, LibrarySpec, plan_options
 from .store import EntryRecord, IndexRow, LibraryWriter, entry_id, failure_patterns
 
@@ -301,126 +301,6 @@ def _prepare_parts(parts: Path, output: Path, digest: str, n_entries: int, resum
     _fsync_dir(parts.parent)
 
 
-# =================================================================== progress
-class Progress(Protocol):
-    """Receives build progress (see :func:`make_progress`)."""
-
-    def start(self, total: int, done: int, failed: int) -> None: ...
-    def update(self, entry: Entry, outcome: EntryOutcome) -> None: ...
-    def log(self, message: str) -> None: ...
-    def close(self) -> None: ...
-
-
-@dataclass
-class _Counts:
-    total: int = 0
-    done: int = 0
-    failed: int = 0
-    planned: int = 0
-    t0: float = field(default_factory=time.monotonic)
-
-    def add(self, ok: bool) -> None:
-        self.done += 1
-        self.planned += 1
-        self.failed += not ok
-
-    @property
-    def rate(self) -> float:
-        """Entries per second planned in this run."""
-        elapsed = time.monotonic() - self.t0
-        return self.planned / elapsed if elapsed > 0 else 0.0
-
-    @property
-    def eta(self) -> str:
-        rate = self.rate
-        if rate <= 0:
-            return "?"
-        return _hms((self.total - self.done) / rate)
-
-
-def _hms(seconds: float) -> str:
-    s = int(round(seconds))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
-
-
-class LogProgress:
-    """Plain log lines (one per finished entry) for non-terminal output."""
-
-    def __init__(self, stream: Any = None):
-        self.stream = stream or sys.stderr
-        self.counts = _Counts()
-
-    def start(self, total: int, done: int, failed: int) -> None:
-        self.counts = _Counts(total, done, failed)
-        self.log(f"{total} entries: {done} checkpointed ({failed} failed), {total - done} to plan")
-
-    def update(self, entry: Entry, outcome: EntryOutcome) -> None:
-        c = self.counts
-        c.add(outcome.ok)
-        what = "ok" if outcome.ok else f"FAILED {outcome.stage}: {outcome.reason}"
-        self.log(
-            f"[{c.done}/{c.total}] {c.failed} failed, {c.rate:.2f}/s, ETA {c.eta} | "
-            f"entry {entry_id(entry.index)} {entry.key} ({outcome.plan_time_s:.2f} s): {what}"
-        )
-
-    def log(self, message: str) -> None:
-        print(message, file=self.stream, flush=True)
-
-    def close(self) -> None:
-        pass
-
-
-class RichProgress:
-    """A rich progress bar: done / total, failed, rate, ETA (for a terminal)."""
-
-    def __init__(self, console: Any = None):
-        from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-        self.console = console or Console(stderr=True)
-        self.counts = _Counts()
-        self._bar = Progress(
-            TextColumn("building"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("[red]{task.fields[failed]} failed"),
-            TextColumn("{task.fields[rate]}/s"),
-            TimeElapsedColumn(),
-            TextColumn("ETA {task.fields[eta]}"),
-            console=self.console,
-        )
-        self._task: Any = None
-
-    def start(self, total: int, done: int, failed: int) -> None:
-        self.counts = _Counts(total, done, failed)
-        self._bar.start()
-        self._task = self._bar.add_task("build", total=total, completed=done, failed=failed, rate="0.00", eta="?")
-
-    def update(self, entry: Entry, outcome: EntryOutcome) -> None:
-        c = self.counts
-        c.add(outcome.ok)
-        if not outcome.ok:
-            what = f"failed {outcome.stage}: {outcome.reason}"
-            self._bar.console.print(f"entry {entry_id(entry.index)} {entry.key}: {what}")
-        self._bar.update(self._task, completed=c.done, failed=c.failed, rate=f"{c.rate:.2f}", eta=c.eta)
-
-    def log(self, message: str) -> None:
-        self._bar.console.print(message)
-
-    def close(self) -> None:
-        self._bar.stop()
-
-
-def make_progress(stream: Any = None) -> Progress:
-    """A :class:`RichProgress` when ``stream`` (default stderr) is a terminal, else :class:`LogProgress`."""
-    stream = stream or sys.stderr
-    if hasattr(stream, "isatty") and stream.isatty():
-        from rich.console import Console
-
-        return RichProgress(Console(file=stream))
-    return LogProgress(stream)
-
-
 # =================================================================== execution
 def default_workers() -> int:
     """Number of CPU cores this process may use."""
@@ -550,7 +430,7 @@ def build_library(
     resume : bool
         Finish an interrupted build from its checkpoints.
     progress : Progress, optional
-        Default :func:`make_progress`.
+        Default :func:`motionlib.progress.make_progress`.
 
     Returns
     -------
@@ -569,7 +449,7 @@ def build_library(
         raise InputError(f"{output}: is a directory, expected a library file name")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise InputError(f"workers: expected an integer >= 1, got {workers!r}")
-    progress = progress or make_progress()
+    progress = progress or make_progress("building")
     entries = spec.entries()
     digest = spec.digest
     parts = parts_dir_for(output)
@@ -591,7 +471,10 @@ def build_library(
                     if isinstance(outcome, BaseException):  # an unexpected error inside the planner: recorded
                         outcome = EntryOutcome(entry.index, "error", f"{type(outcome).__name__}: {outcome}", 0.0)
                     write_part(parts, entry, outcome)
-                    progress.update(entry, outcome)
+                    what = "ok" if outcome.ok else f"failed {outcome.stage}: {outcome.reason}"
+                    progress.advance(
+                        outcome.ok, f"entry {entry_id(entry.index)} {entry.key} ({outcome.plan_time_s:.2f} s): {what}"
+                    )
         finally:
             progress.close()
         build_info = {

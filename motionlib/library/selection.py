@@ -78,7 +78,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..checks import check_points, check_scalar, check_vector
-from ..errors import InputError
+from ..errors import InputError, NoSelectionError
 
 DEFAULT_START_WEIGHTS: tuple[float, float, float, float] = (7.0, 7.0, 4.0, 1.0)
 """Diagonal of ``W`` in ``d2 = ||W (c - q_c)||`` (m/rad, m/rad, m/rad, m/m), see the module docstring."""
@@ -202,6 +202,12 @@ class SelectionResult:
     def ok(self) -> bool:
         """True when a trajectory was selected."""
         return self.status is SelectionStatus.OK
+
+    def raise_for_status(self, where: str = "") -> SelectionResult:
+        """Return self when a trajectory was selected, else raise :class:`NoSelectionError` (``where``: a prefix)."""
+        if not self.ok:
+            raise NoSelectionError(f"{where}: {self.message}" if where else self.message)
+        return self
 
     @functools.cached_property
     def end_distance_m(self) -> np.ndarray:

@@ -4,7 +4,7 @@ A library file is one HDF5 file holding the set Q of pre-planned trajectories of
 003 eq. 5.2 with everything needed to select from it (003 eqs. 5.3-5.7):
 
 ``/``  attributes
-    ``schema`` = ``motionlib.library.store``, ``schema_version``, ``name``, ``crane``,
+    ``schema`` = ``motionlib.library``, ``schema_version``, ``name``, ``crane``,
     ``crane_digest``, ``scene``, ``scene_digest``, ``n_entries``, ``n_ok``,
     ``n_failed``, ``approach_points``, ``approach_length_m``, and the JSON records
     ``crane_model``, ``scene_model``, ``spec`` and ``build``.
@@ -29,7 +29,6 @@ entries and trajectories are read on demand.
 from __future__ import annotations
 
 import functools
-import json
 import re
 from collections import Counter
 from collections.abc import Sequence
@@ -43,11 +42,14 @@ import numpy as np
 
 from ..checks import check_vector
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output, json_default
+from ..fileio import atomic_output, encode_attr, hdf5_errors, read_json_attr
+from ..model.embedded import CRANE_ATTR, SCENE_ATTR, crane_from_record
+from ..model.kinematics import Crane
+from ..model.scene import Scene
 from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
-from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, approach_samples
+from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex, SelectionResult, approach_samples
 
-LIBRARY_SCHEMA = "motionlib.library.store"
+LIBRARY_SCHEMA = "motionlib.library"
 LIBRARY_VERSION = 1
 
 #: Index arrays: name -> shape after the row axis (``k`` = number of approach points).
@@ -132,9 +134,9 @@ class IndexRow:
             start_q=check_vector(start_q, 4, "start_q"),
             end_p=tips[-1].copy(),
             duration_s=float(traj.t[-1]),
-            energy_m3=float(traj.attrs["energy_m3"]),
-            path_length_m=float(traj.attrs["path_length_m"]),
-            clearance_m=float(traj.attrs["min_clearance_m"]),
+            energy_m3=float(traj.info.energy_m3),
+            path_length_m=float(traj.info.path_length_m),
+            clearance_m=float(traj.info.min_clearance_m),
             approach_p=approach_p,
             approach_t=approach_t,
         )
@@ -351,7 +353,7 @@ class LibraryWriter:
         attrs["approach_points"] = k
         attrs["approach_length_m"] = APPROACH_LENGTH_M
         for key in ("crane_model", "scene_model", "spec", "build"):
-            attrs[key] = "json:" + json.dumps(self._header[key], default=json_default, sort_keys=True)
+            attrs[key] = encode_attr(self._header[key])
         f.flush()
 
 
@@ -415,7 +417,7 @@ class Library:
 
     # ------------------------------------------------------------------ open
     @classmethod
-    def open(cls, path: str | Path, crane: Any = None) -> Library:
+    def open(cls, path: str | Path, crane: Crane | str | Path | None = None) -> Library:
         """Open a library file, reading only its attributes and index arrays.
 
         Parameters
@@ -436,21 +438,16 @@ class Library:
         path = Path(path)
         if not path.is_file():
             raise LibraryFileError(f"{path}: no such library file")
-        try:
-            with h5py.File(path, "r") as f:
-                attrs = _check_header(path, f)
-                arrays = _read_index(path, f, int(attrs["n_ok"]))
-        except OSError as exc:
-            raise LibraryFileError(f"{path}: not a readable library (truncated or corrupt HDF5: {exc})") from exc
+        with hdf5_errors(f"{path}: not a readable library (truncated or corrupt HDF5)"), h5py.File(path, "r") as f:
+            attrs = _check_header(path, f)
+            arrays = _read_index(path, f, int(attrs["n_ok"]))
         lib = cls(path, attrs, arrays)
         if crane is not None:
             lib.check_crane(crane)
         return lib
 
-    def check_crane(self, crane: Any) -> None:
+    def check_crane(self, crane: Crane | str | Path) -> None:
         """Raise :class:`LibraryFileError` unless the library was built for ``crane`` (Crane, name or file)."""
-        from ..model.kinematics import Crane
-
         if not isinstance(crane, Crane):
             crane = Crane.load(crane)
         if crane.model.digest != self.crane_digest:
@@ -470,17 +467,15 @@ class Library:
 
     # ------------------------------------------------------------------ selection
     @functools.cached_property
-    def index(self) -> Any:
+    def index(self) -> SelectionIndex:
         """The :class:`motionlib.library.selection.SelectionIndex` over the index arrays (built on first use)."""
-        from .selection import SelectionIndex
-
         if len(self) == 0:
             raise InputError(f"{self.path}: the library has no successful entries to select from")
         return SelectionIndex(
             self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t
         )
 
-    def select(self, target_p: Any, current_q: Any = None, utility: str = "time", **kw: Any) -> Any:
+    def select(self, target_p: Any, current_q: Any = None, utility: str = "time", **kw: Any) -> SelectionResult:
         """Rank the library's trajectories for an estimated target (003 eqs. 5.3-5.7).
 
         Parameters
@@ -507,22 +502,16 @@ class Library:
         if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < len(self):
             raise InputError(f"trajectory: expected a row in [0, {len(self) - 1}], got {i!r}")
         name = f"trajectories/{entry_id(self.entry[i])}"
-        try:
-            with h5py.File(self.path, "r") as f:
-                if name not in f:
-                    raise LibraryFileError(f"{self.path}: missing group /{name}")
-                return read_trajectory(f[name])
-        except OSError as exc:
-            raise LibraryFileError(f"{self.path}: cannot read /{name} ({exc})") from exc
+        with hdf5_errors(f"{self.path}: cannot read /{name}"), h5py.File(self.path, "r") as f:
+            if name not in f:
+                raise LibraryFileError(f"{self.path}: missing group /{name}")
+            return read_trajectory(f[name])
 
     @functools.cached_property
     def entries(self) -> tuple[EntryRecord, ...]:
         """Every entry with its status, stage and reason, in entry order."""
-        try:
-            with h5py.File(self.path, "r") as f:
-                cols = _read_entries(self.path, f, self.n_entries)
-        except OSError as exc:
-            raise LibraryFileError(f"{self.path}: cannot read /entries ({exc})") from exc
+        with hdf5_errors(f"{self.path}: cannot read /entries"), h5py.File(self.path, "r") as f:
+            cols = _read_entries(self.path, f, self.n_entries)
         return tuple(
             EntryRecord(
                 index=i,
@@ -587,33 +576,18 @@ class Library:
         """A JSON record of the root: ``crane_model``, ``scene_model``, ``spec`` or ``build``."""
         if key not in ("crane_model", "scene_model", "spec", "build"):
             raise InputError(f"metadata: expected crane_model, scene_model, spec or build, got {key!r}")
-        try:
-            with h5py.File(self.path, "r") as f:
-                return _json_attr(self.path, f, key)
-        except OSError as exc:
-            raise LibraryFileError(f"{self.path}: cannot read attribute {key!r} ({exc})") from exc
-
+        with hdf5_errors(f"{self.path}: cannot read attribute {key!r}"), h5py.File(self.path, "r") as f:
+            return read_json_attr(f.attrs, key, f"{self.path}: corrupt library")
 
     @functools.cached_property
-    def crane(self) -> Any:
+    def crane(self) -> Crane:
         """The :class:`~motionlib.model.kinematics.Crane` embedded in the library, checked against its digest."""
-        from ..model.crane_model import CraneModel
-        from ..model.kinematics import Crane
-
-        try:
-            model = CraneModel.from_dict(self.metadata("crane_model"))
-        except (KeyError, TypeError) as exc:
-            raise LibraryFileError(f"{self.path}: the embedded crane model is not readable ({exc})") from exc
-        if model.digest != self.crane_digest:
-            raise LibraryFileError(f"{self.path}: the embedded crane model does not match its digest")
-        return Crane(model)
+        return crane_from_record(self.metadata(CRANE_ATTR), str(self.path), self.crane_digest)
 
     @functools.cached_property
-    def scene(self) -> Any:
+    def scene(self) -> Scene:
         """The :class:`~motionlib.model.scene.Scene` embedded in the library (validated as a scene file)."""
-        from ..model.scene import Scene
-
-        return Scene.from_dict(self.metadata("scene_model"), f"{self.path}:scene_model", crane=self.crane)
+        return Scene.from_dict(self.metadata(SCENE_ATTR), f"{self.path}:{SCENE_ATTR}", crane=self.crane)
 
 
 # ------------------------------------------------------------------ reading helpers
@@ -682,15 +656,3 @@ def _read_entries(path: Path, f: h5py.File, n: int) -> dict[str, Sequence[Any]]:
         else:
             cols[key] = group[key][()]
     return cols
-
-
-def _json_attr(path: Path, f: h5py.File, key: str) -> Any:
-    value = f.attrs.get(key)
-    if isinstance(value, bytes):
-        value = value.decode()
-    if not isinstance(value, str) or not value.startswith("json:"):
-        raise LibraryFileError(f"{path}: corrupt library: root attribute {key!r} is missing or not JSON")
-    try:
-        return json.loads(value[5:])
-    except json.JSONDecodeError as exc:
-        raise LibraryFileError(f"{path}: corrupt library: root attribute {key!r}: {exc}") from exc

@@ -27,6 +27,7 @@ Stages (each its own module, each returning a result with a status):
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from enum import Enum
@@ -38,7 +39,7 @@ from ..checks import check_vector
 from ..errors import PlanningError, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import limits_for, verify_samples
+from ..model.limits import limits_for
 from ..model.scene import Scene
 from .path import PathOptions, PathStatus, plan_tip_path
 from .redundancy import (
@@ -49,7 +50,8 @@ from .redundancy import (
     optimise_telescope,
 )
 from .timing import TimingStatus, time_scale
-from .trajectory import Trajectory
+from .trajectory import StageReport, Trajectory, TrajectoryInfo
+from .verification import Verifier
 
 
 class PlanStatus(Enum):
@@ -65,18 +67,6 @@ class PlanStatus(Enum):
 
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400))
-
-
-@dataclass(frozen=True)
-class VerificationReport:
-    """Problems found by :meth:`Planner.verify`: one line each, limits and collisions apart."""
-
-    limits: list[str]
-    collisions: list[str]
-
-    @property
-    def ok(self) -> bool:
-        return not (self.limits or self.collisions)
 
 
 @dataclass(frozen=True)
@@ -131,9 +121,9 @@ class PlanResult:
         One line; empty when OK.
     trajectory : Trajectory or None
         The verified trajectory (None unless OK).
-    stages : dict
-        Per stage: ``status``, ``time_s`` and details.
-    baselines : dict
+    stages : dict of str to StageReport
+        What each stage that ran did: status, time and diagnostics.
+    baselines : dict of str to float or None
         ``constant`` and ``linear``: TOPPRA durations (s) of the same path with
         a constant and a linearly interpolated telescope (None if infeasible).
     """
@@ -141,7 +131,7 @@ class PlanResult:
     status: PlanStatus
     reason: str = ""
     trajectory: Trajectory | None = None
-    stages: dict[str, dict[str, Any]] = field(default_factory=dict)
+    stages: dict[str, StageReport] = field(default_factory=dict)
     baselines: dict[str, float | None] = field(default_factory=dict)
 
     @property
@@ -150,7 +140,7 @@ class PlanResult:
 
     def raise_for_status(self) -> PlanResult:
         """Return self when OK, else raise :class:`PlanningError` naming the stage."""
-        if not self.ok:
+        if not self.ok or self.trajectory is None:
             raise PlanningError(self.status.value, self.reason)
         return self
 
@@ -172,8 +162,9 @@ class Planner:
         o = self.options
         self._path_checker = CollisionChecker(crane, scene, margin=o.clearance_m)
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
-        self._exact_checker = CollisionChecker(crane, scene, margin=0.0)
         self.limits = limits_for(crane)
+        self.verifier = Verifier(crane, scene, self.limits, o.loaded, o.verify_tip_spacing_m)
+        self._exact_checker = self.verifier.checker
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
 
     # ----------------------------------------------------------------- helpers
@@ -241,10 +232,10 @@ class Planner:
         crane, o = self.crane, self.options
         start_q = check_vector(start_q, 4, "start")
         goal_p = check_vector(goal_p, 3, "goal")
-        stages: dict[str, dict[str, Any]] = {}
+        stages: dict[str, StageReport] = {}
 
-        def fail(status: PlanStatus, reason: str) -> PlanResult:
-            return PlanResult(status, reason, None, stages)
+        def fail(status: PlanStatus, reason: str, baselines: dict[str, float | None] | None = None) -> PlanResult:
+            return PlanResult(status, reason, None, stages, baselines or {})
 
         # Query checks.
         if not crane.within_limits(start_q):
@@ -281,8 +272,8 @@ class Planner:
         path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
-        stages["path"] = {"status": path.status.value, "time_s": time.perf_counter() - t0, **path.diagnostics}
-        if path.status is not PathStatus.OK:
+        stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+        if path.status is not PathStatus.OK or path.spline is None:
             return fail(PlanStatus.PATH_FAILED, path.reason)
         spline = path.spline
 
@@ -290,9 +281,8 @@ class Planner:
         #    limits and arm clearance (a verified result, with fallbacks when none is clear).
         t0 = time.perf_counter()
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy)
-        stages["redundancy"] = {"status": red.status.value, **red.diagnostics}
-        if red.status is not RedundancyStatus.OK:
-            stages["redundancy"]["time_s"] = time.perf_counter() - t0
+        if red.status is not RedundancyStatus.OK or red.profile is None:
+            stages["redundancy"] = StageReport(red.status.value, time.perf_counter() - t0, dict(red.diagnostics))
             return fail(PlanStatus.REDUNDANCY_FAILED, red.reason)
         s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
         p_grid = spline(s_grid)
@@ -312,7 +302,9 @@ class Planner:
             q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
             rejected.update(more)
             candidates.update(fallbacks)
-        stages["redundancy"].update(time_s=time.perf_counter() - t0, rejected=rejected)
+        stages["redundancy"] = StageReport(
+            red.status.value, time.perf_counter() - t0, {**red.diagnostics, "rejected": rejected}
+        )
         if not q_paths:
             reasons = sorted(set(rejected.values()))
             return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(reasons))
@@ -328,39 +320,52 @@ class Planner:
             timings = {
                 name: time_scale(s_grid, q, limits, dt=o.dt_s, min_gridpoints=min_grid) for name, q in q_paths.items()
             }
-            timed = {name: t for name, t in timings.items() if t.status is TimingStatus.OK}
+            timed = {name: r for name, r in timings.items() if r.status is TimingStatus.OK}
             baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}
-            stages["timing"] = {
-                "status": "ok" if timed else "failed",
+            t_timing += time.perf_counter() - t0
+            timing_details: dict[str, Any] = {
                 "safety_factor": scale,
                 "min_gridpoints": min_grid,
                 "durations_s": {k: v.duration_s for k, v in timed.items()},
-                "rejected": {k: t.reason for k, t in timings.items() if k not in timed},
+                "rejected": {k: r.reason for k, r in timings.items() if k not in timed},
             }
-            t_timing += time.perf_counter() - t0
-            stages["timing"]["time_s"] = t_timing
             if not timed:
-                reasons = "; ".join(f"{k}: {v}" for k, v in stages["timing"]["rejected"].items())
-                return PlanResult(
-                    PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", None, stages, baselines
-                )
+                stages["timing"] = StageReport("failed", t_timing, timing_details)
+                reasons = "; ".join(f"{k}: {v}" for k, v in timing_details["rejected"].items())
+                return fail(PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", baselines)
             chosen = min(timed, key=lambda k: timed[k].duration_s)
             timing = timed[chosen]
-            stages["timing"]["profile"] = chosen
+            stages["timing"] = StageReport("ok", t_timing, {**timing_details, "profile": chosen})
             t0 = time.perf_counter()
-            report = self.verify(timing.t, timing.q, timing.qd, timing.qdd)
+            report = self.verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
             t_verify += time.perf_counter() - t0
-            stages["verification"] = {
-                "status": "ok" if report.ok else "failed",
-                "time_s": t_verify,
-                "problems": (report.limits + report.collisions)[:10],
-            }
+            stages["verification"] = StageReport(
+                "ok" if report.ok else "failed", t_verify, {"problems": report.problems[:10]}
+            )
             if report.ok or report.collisions:
                 break
         if not report.ok:
-            first = (report.collisions + report.limits)[0]
-            return PlanResult(PlanStatus.VERIFICATION_FAILED, first, None, stages, baselines)
+            return fail(PlanStatus.VERIFICATION_FAILED, report.problems[0], baselines)
 
+        info = TrajectoryInfo(
+            duration_s=timing.duration_s,
+            path_length_m=float(spline.length),
+            energy_m3=self.verifier.oil_volume_m3(timing.t, timing.qd),
+            min_clearance_m=self.verifier.min_clearance(timing.q),
+            crane=crane.name,
+            crane_digest=crane.model.digest,
+            scene=self.scene.name,
+            scene_digest=self.scene.digest,
+            start_q=tuple(start_q.tolist()),
+            goal_p=tuple(goal_p.tolist()),
+            loaded=o.loaded,
+            seed=o.seed,
+            profile=chosen,
+            baseline_constant_s=_nan_if_none(baselines["constant"]),
+            baseline_linear_s=_nan_if_none(baselines["linear"]),
+            stages=dict(stages),
+            limits=self.verifier.limits_record(o.clearance_m, o.arm_clearance_m),
+        )
         traj = Trajectory(
             t=timing.t,
             q=timing.q,
@@ -372,25 +377,7 @@ class Planner:
             spline_breakpoints=spline.breakpoints,
             spline_coefficients=spline.coefficients,
             telescope_control_points=candidates[chosen].control_points,
-            attrs={
-                "duration_s": timing.duration_s,
-                "path_length_m": float(spline.length),
-                "energy_m3": self.energy_m3(timing.t, timing.qd),
-                "min_clearance_m": self.min_clearance(timing.q),
-                "crane": crane.name,
-                "crane_digest": crane.model.digest,
-                "scene": self.scene.name,
-                "scene_digest": self.scene.digest,
-                "start_q": start_q.tolist(),
-                "goal_p": goal_p.tolist(),
-                "loaded": o.loaded,
-                "seed": o.seed,
-                "profile": chosen,
-                "baseline_constant_s": np.nan if baselines["constant"] is None else baselines["constant"],
-                "baseline_linear_s": np.nan if baselines["linear"] is None else baselines["linear"],
-                "stages": stages,
-                "limits": self.limits_record(),
-            },
+            info=info,
         )
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines)
 
@@ -424,61 +411,9 @@ class Planner:
                 usable[name] = q_grid
         return usable, rejected
 
-    # ------------------------------------------------------------ verification
-    def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> VerificationReport:
-        """Dense re-check of a trajectory: limits (1 % tolerance) and collisions.
 
-        Collisions are checked with the exact (margin 0) checker at every 200 Hz
-        sample, plus joint-linear interpolations wherever consecutive samples
-        move the tip more than ``verify_tip_spacing_m``.
-        """
-        limits = [str(v) for v in verify_samples(t, q, qd, qdd, self.limits, tol=0.01)]
-        tips = self.crane.fk_batch(q)
-        step = np.linalg.norm(np.diff(tips, axis=0), axis=1)
-        n_sub = np.maximum(1, np.ceil(step / self.options.verify_tip_spacing_m).astype(int))
-        if n_sub.max() > 1:
-            pieces = [q[:1]]
-            for i, n in enumerate(n_sub):
-                frac = np.arange(1, n + 1)[:, None] / n
-                pieces.append(q[i] + frac * (q[i + 1] - q[i]))
-            q_check = np.concatenate(pieces)
-        else:
-            q_check = q
-        collisions = []
-        hits = self._exact_checker.configurations_in_collision(q_check, self.options.loaded)
-        if hits.any():
-            first = q_check[np.argmax(hits)]
-            d = self._exact_checker.distance(first, self.options.loaded)
-            collisions.append(f"collision of {d.crane_part} with {d.obstacle} at q = {np.round(first, 3).tolist()}")
-        return VerificationReport(limits, collisions)
-
-    def energy_m3(self, t: np.ndarray, qd: np.ndarray) -> float:
-        """Hydraulic energy proxy: displaced oil volume sum_i integral d_i |qd_i| dt (m^3); NaN without hydraulics."""
-        if self.crane.model.displacement is None:
-            return float("nan")
-        return float(np.trapezoid(np.abs(qd) @ np.asarray(self.crane.model.displacement), t))
-
-    def min_clearance(self, q: np.ndarray, stride: int = 10) -> float:
-        """Smallest crane-to-scene distance (m) over every ``stride``-th sample and the last."""
-        idx = np.unique(np.append(np.arange(0, len(q), stride), len(q) - 1))
-        return float(min(self._exact_checker.distance(q[i], self.options.loaded).distance for i in idx))
-
-    def limits_record(self) -> dict[str, Any]:
-        """The limits used, as plain data for the trajectory file."""
-        c = self.crane
-        rec: dict[str, Any] = {
-            "q_min": c.q_min.tolist(),
-            "q_max": c.q_max.tolist(),
-            "qd_min": c.qd_min.tolist(),
-            "qd_max": c.qd_max.tolist(),
-            "qdd_max": c.qdd_max.tolist(),
-            "clearance_m": self.options.clearance_m,
-            "arm_clearance_m": self.options.arm_clearance_m,
-        }
-        if c.model.pump_flow is not None:
-            rec["pump_flow_m3_s"] = c.model.pump_flow
-            rec["displacement"] = list(c.model.displacement)
-        return rec
+def _nan_if_none(value: float | None) -> float:
+    return math.nan if value is None else float(value)
 
 
 def plan(

@@ -10,8 +10,8 @@ a library holds many under ``/trajectories``.
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, field
+import math
+from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -19,10 +19,157 @@ import h5py
 import numpy as np
 
 from ..errors import LibraryFileError
-from ..fileio import atomic_output, json_default
+from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors
+from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedding_attrs
+from ..model.kinematics import Crane
+from ..model.scene import Scene
 
-TRAJECTORY_SCHEMA = "motionlib.planning.trajectory"
+TRAJECTORY_SCHEMA = "motionlib.trajectory"
 TRAJECTORY_VERSION = 1
+
+
+@dataclass(frozen=True)
+class StageReport:
+    """What one planning stage did.
+
+    Attributes
+    ----------
+    status : str
+        ``ok`` or the stage's failure status.
+    time_s : float
+        Wall time of the stage (s).
+    details : dict
+        Stage diagnostics as plain JSON-serialisable data (OMPL planner and status,
+        IPOPT status and iterations, rejected profiles and why, TOPPRA grid, problems found).
+    """
+
+    status: str
+    time_s: float = 0.0
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"status": self.status, "time_s": self.time_s, **self.details}
+
+    @classmethod
+    def from_dict(cls, record: dict[str, Any]) -> StageReport:
+        rest = {k: v for k, v in record.items() if k not in ("status", "time_s")}
+        return cls(str(record["status"]), float(record.get("time_s", 0.0)), rest)
+
+
+@dataclass(frozen=True)
+class TrajectoryInfo:
+    """Scalars and small records of a trajectory (its file attributes).
+
+    Attributes
+    ----------
+    duration_s : float
+        Duration (s).
+    path_length_m : float
+        Tip-path length l (m).
+    energy_m3 : float
+        Displaced oil volume ``sum_i integral d_i |qd_i| dt`` (m^3), the energy proxy;
+        NaN without hydraulics.
+    min_clearance_m : float
+        Smallest crane-to-scene distance along the trajectory (m).
+    crane, crane_digest, scene, scene_digest : str
+        Crane and scene names and the SHA-256 digests of their models.
+    start_q : tuple of 4 float
+        Start configuration (rad, rad, rad, m).
+    goal_p : tuple of 3 float
+        Goal tip point (m, base frame).
+    loaded : bool
+        A log was carried.
+    seed : int
+        Path-planner seed.
+    profile : str
+        Telescope profile used: ``optimised``, ``constant``, ``linear`` or ``fallback-linear-to-<q4>``.
+    baseline_constant_s, baseline_linear_s : float
+        Durations (s) of the same path with a constant / linearly interpolated telescope; NaN if infeasible.
+    stages : dict of str to StageReport
+        Per stage (``path``, ``redundancy``, ``timing``, ``verification``).
+    limits : dict
+        The limits used (``q_min``, ``q_max``, ``qd_min``, ``qd_max``, ``qdd_max``, pump, clearances).
+    """
+
+    duration_s: float
+    path_length_m: float
+    energy_m3: float
+    min_clearance_m: float
+    crane: str
+    crane_digest: str
+    scene: str
+    scene_digest: str
+    start_q: tuple[float, ...]
+    goal_p: tuple[float, ...]
+    loaded: bool
+    seed: int
+    profile: str
+    baseline_constant_s: float = math.nan
+    baseline_linear_s: float = math.nan
+    stages: dict[str, StageReport] = field(default_factory=dict)
+    limits: dict[str, Any] = field(default_factory=dict)
+
+    def to_attrs(self) -> dict[str, Any]:
+        """Plain values per attribute name (stages as records)."""
+        out = asdict(self)
+        out["stages"] = {k: v.to_dict() for k, v in self.stages.items()}
+        out["start_q"] = list(self.start_q)
+        out["goal_p"] = list(self.goal_p)
+        return out
+
+    @classmethod
+    def from_attrs(cls, attrs: dict[str, Any], where: str) -> TrajectoryInfo:
+        """Inverse of :meth:`to_attrs`, with types checked.
+
+        Raises
+        ------
+        LibraryFileError
+            An attribute is missing, unknown or of the wrong type; the message names it.
+        """
+        known = {f.name: f for f in fields(cls)}
+        unknown = sorted(set(attrs) - set(known))
+        if unknown:
+            raise LibraryFileError(f"{where}: unknown trajectory attribute {unknown[0]!r}")
+        values: dict[str, Any] = {}
+        for name, f in known.items():
+            if name not in attrs:
+                if f.default is not MISSING or f.default_factory is not MISSING:
+                    continue
+                raise LibraryFileError(f"{where}: trajectory attribute {name!r} is missing")
+            values[name] = _convert(name, attrs[name], where)
+        return cls(**values)
+
+
+def _convert(name: str, value: Any, where: str) -> Any:
+    """One attribute value as the type its :class:`TrajectoryInfo` field declares."""
+    label = f"{where}: attribute {name!r}"
+    try:
+        if name in ("crane", "crane_digest", "scene", "scene_digest", "profile"):
+            if not isinstance(value, str):
+                raise TypeError("expected a string")
+            return value
+        if name == "loaded":
+            if not isinstance(value, bool | np.bool_):
+                raise TypeError("expected true or false")
+            return bool(value)
+        if name == "seed":
+            if isinstance(value, bool) or not isinstance(value, int | np.integer):
+                raise TypeError("expected an integer")
+            return int(value)
+        if name in ("start_q", "goal_p"):
+            vec = tuple(float(v) for v in value)
+            if len(vec) != (4 if name == "start_q" else 3):
+                raise ValueError(f"expected {4 if name == 'start_q' else 3} numbers")
+            return vec
+        if name == "stages":
+            return {str(k): StageReport.from_dict(v) for k, v in dict(value).items()}
+        if name == "limits":
+            return dict(value)
+        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+            raise TypeError("expected a number")
+        return float(value)
+    except (TypeError, ValueError, KeyError) as exc:
+        raise LibraryFileError(f"{label}: {exc}, got {value!r:.80}") from exc
 
 
 @dataclass
@@ -47,13 +194,8 @@ class Trajectory:
         Its coefficients in ``scipy.interpolate.PPoly`` layout.
     telescope_control_points : ndarray, shape (d + 1,)
         Bézier control points (m) of the telescope profile over theta = s / l.
-    attrs : dict
-        Scalars and small records: ``duration_s``, ``path_length_m``,
-        ``energy_m3``, ``min_clearance_m``, ``crane``, ``crane_digest``,
-        ``scene``, ``scene_digest``, ``start_q``, ``goal_p``, ``loaded``,
-        ``seed``, ``profile`` (which telescope profile was used),
-        ``baseline_constant_s``, ``baseline_linear_s``, ``stages`` (per-stage
-        status, time and details), ``limits`` (the limits used).
+    info : TrajectoryInfo
+        Duration, path length, energy, clearance, provenance, baselines, stages, limits.
     """
 
     t: np.ndarray
@@ -66,7 +208,7 @@ class Trajectory:
     spline_breakpoints: np.ndarray
     spline_coefficients: np.ndarray
     telescope_control_points: np.ndarray
-    attrs: dict[str, Any] = field(default_factory=dict)
+    info: TrajectoryInfo
 
     @property
     def duration_s(self) -> float:
@@ -105,15 +247,8 @@ def write_trajectory(group: h5py.Group, traj: Trajectory, compression: str | Non
         )
     group.attrs["schema"] = TRAJECTORY_SCHEMA
     group.attrs["schema_version"] = TRAJECTORY_VERSION
-    for key, value in traj.attrs.items():
-        if isinstance(value, (bool, np.bool_)):
-            group.attrs[key] = bool(value)
-        elif isinstance(value, (int, float, np.integer, np.floating)) and value is not None:
-            group.attrs[key] = value
-        elif isinstance(value, str):
-            group.attrs[key] = value
-        else:
-            group.attrs[key] = "json:" + json.dumps(value, default=json_default)
+    for key, value in traj.info.to_attrs().items():
+        group.attrs[key] = encode_attr(value)
 
 
 def read_trajectory(group: h5py.Group) -> Trajectory:
@@ -138,43 +273,32 @@ def read_trajectory(group: h5py.Group) -> Trajectory:
         if key not in group:
             raise LibraryFileError(f"{where}: missing dataset {key!r}")
         arrays[attr] = group[key][()]
-    attrs = {}
-    for key, value in group.attrs.items():
-        if key in ("schema", "schema_version"):
-            continue
-        if isinstance(value, bytes):
-            value = value.decode()
-        if isinstance(value, str) and value.startswith("json:"):
-            value = json.loads(value[5:])
-        elif isinstance(value, np.generic):
-            value = value.item()
-        attrs[key] = value
-    return Trajectory(**arrays, attrs=attrs)
+    attrs = {
+        key: decode_attr(value, f"{where}: attribute {key!r}")
+        for key, value in group.attrs.items()
+        if key not in ("schema", "schema_version", CRANE_ATTR, SCENE_ATTR)
+    }
+    return Trajectory(**arrays, info=TrajectoryInfo.from_attrs(attrs, where))
 
 
-def save_plan(path: str | Path, traj: Trajectory, embedded: dict[str, Any]) -> None:
-    """Write a plan file: one trajectory at the root, with crane and scene embedded.
+def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) -> None:
+    """Write a plan file: one trajectory at the root, with its crane and scene embedded.
 
     Parameters
     ----------
     path : str or Path
         Output ``.h5`` file, written atomically.
     traj : Trajectory
-    embedded : dict
-        JSON-serialisable records stored as root attributes (``crane_model``,
-        ``scene_model``).
+    crane, scene : Crane, Scene
+        Embedded as the root attributes ``crane_model`` and ``scene_model`` (:mod:`motionlib.model.embedded`).
     """
     with atomic_output(path) as tmp:
         with h5py.File(tmp, "w") as f:
             write_trajectory(f, traj)
-            for key, value in embedded.items():
-                f.attrs[key] = "json:" + json.dumps(value, default=json_default)
+            f.attrs.update(embedding_attrs(crane, scene))
 
 
 def load_plan(path: str | Path) -> Trajectory:
     """Read a plan file written by :func:`save_plan`."""
-    try:
-        with h5py.File(path, "r") as f:
-            return read_trajectory(f)
-    except OSError as exc:
-        raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
+    with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
+        return read_trajectory(f)

@@ -10,11 +10,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 from ..checks import check_scalar
 from .control_types import Authority
 from .controller import SharedController
+from .operators import Observation, Operator
 from .plant import SimulatedCrane
 from .runlog import RunLog
 
@@ -77,7 +77,7 @@ class LoopResult:
 def run_closed_loop(
     controller: SharedController,
     sim: SimulatedCrane,
-    operator: Any,
+    operator: Operator,
     options: LoopOptions | None = None,
     log: RunLog | None = None,
 ) -> LoopResult:
@@ -102,8 +102,6 @@ def run_closed_loop(
     -------
     LoopResult
     """
-    from .operators import Observation  # late: operators imports the controller's types
-
     opts = options or LoopOptions()
     dt = controller.params.dt_s
     log = RunLog() if log is None else log

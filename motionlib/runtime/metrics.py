@@ -22,7 +22,7 @@ the last ``TRIM_UNSETTLED_S`` (0.25 s) of the integrals and peaks.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
@@ -171,6 +171,53 @@ def path_deviation(p: Any, path: TipSpline, resolution_m: float = 0.001) -> np.n
     return np.asarray(dist, dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class RunSummary:
+    """The measures of one run (what ``motionlib execute`` prints; its ``--json`` keys).
+
+    Attributes
+    ----------
+    cycle_time_s : float
+        Time (s) the tip settled, or the time limit.
+    final_error_m : float
+        Distance (m) of the last tip position from the operator's target.
+    total_jerk : float
+        Half the integral of the squared third derivative of the filtered tip position
+        (m^2/s^5), 000 eq. 6 as its text means it.
+    total_sq_acceleration : float
+        Half the integral of the squared second derivative (m^2/s^3), 000 eq. 6 as printed.
+    peak_acceleration_m_s2, peak_jerk_m_s3, peak_speed_m_s : float
+        Peaks of the filtered tip signals.
+    max_deviation_m : float or None
+        Largest distance (m) from the planned path while the automation was in control; None without one.
+    handover_time_s, arrival_time_s : float or None
+        First ``handover`` or ``abort`` event, first ``arrival`` event (s); None if none.
+    peak_swing_rad : float
+        Largest grapple swing angle (rad).
+    planned_duration_s : float or None
+        Duration (s) of the executed trajectory; None without one.
+    flags_seen : int
+        OR of every step's controller flags.
+    """
+
+    cycle_time_s: float
+    final_error_m: float
+    total_jerk: float
+    total_sq_acceleration: float
+    peak_acceleration_m_s2: float
+    peak_jerk_m_s3: float
+    peak_speed_m_s: float
+    max_deviation_m: float | None
+    handover_time_s: float | None
+    arrival_time_s: float | None
+    peak_swing_rad: float
+    planned_duration_s: float | None
+    flags_seen: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
 def run_summary(
     arrays: dict[str, np.ndarray],
     events: list[Any],
@@ -179,8 +226,8 @@ def run_summary(
     trajectory: Trajectory | None = None,
     options: FilterOptions | None = None,
     settled: bool = True,
-) -> dict[str, Any]:
-    """The summary of a run (``motionlib execute`` prints it; ``--json`` keys).
+) -> RunSummary:
+    """The measures of a run (:class:`RunSummary`).
 
     Parameters
     ----------
@@ -201,14 +248,7 @@ def run_summary(
 
     Returns
     -------
-    dict
-        ``cycle_time_s``, ``final_error_m``, ``total_jerk`` (m^2/s^5, 000 eq. 6 with the third
-        derivative), ``total_sq_acceleration`` (the printed eq. 6), ``peak_acceleration_m_s2``,
-        ``peak_jerk_m_s3``, ``max_deviation_m`` (largest distance from the planned path while
-        the automated motion was in control; None without one), ``handover_time_s`` (first
-        ``handover`` or ``abort`` event; None if none), ``arrival_time_s`` (None if none),
-        ``peak_swing_rad``, ``planned_duration_s`` (None without a trajectory),
-        ``flags_seen`` (OR of all step flags).
+    RunSummary
     """
     target = check_vector(target_p, 3, "target_p")
     t = arrays["t"]
@@ -235,4 +275,4 @@ def run_summary(
     out["peak_swing_rad"] = float(np.max(arrays["swing_rad"])) if t.size else 0.0
     out["planned_duration_s"] = trajectory.duration_s if trajectory is not None else None
     out["flags_seen"] = int(np.bitwise_or.reduce(arrays["flags"])) if t.size else 0
-    return out
+    return RunSummary(**out)

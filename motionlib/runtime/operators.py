@@ -77,7 +77,7 @@ import random
 from collections import deque
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -124,6 +124,18 @@ class Observation:
         self.v: Vec3 = (0.0, 0.0, 0.0)
         self.automation_active = False
         self.motion_end: Vec3 | None = None
+
+
+class Operator(Protocol):
+    """What the closed loop needs of an operator model."""
+
+    def input(self, obs: Observation) -> OperatorInput:
+        """The stick sample for this step, from what the operator sees."""
+        ...
+
+    def done(self, obs: Observation) -> bool:
+        """The operator has finished (the run may settle)."""
+        ...
 
 
 class PassiveOperator:

@@ -258,9 +258,8 @@ class SimulatedCrane:
         v0, v1, v2, v3 = self.qd
         lo0, lo1, lo2, lo3 = self._q_min
         hi0, hi1, hi2, hi3 = self._q_max
-        kin = self.kin
-        off, height, boom, jib, toff = kin.off, kin.height, kin.boom, kin.jib, kin.offset
-        cos, sin, sqrt = math.cos, math.sin, math.sqrt
+        tip = self.kin.tip
+        sqrt = math.sqrt
         length2 = self.length_m * self.length_m
         gx, gy, gz = self.grapple
         gpx, gpy, gpz = self._grapple_prev
@@ -290,12 +289,7 @@ class SimulatedCrane:
             elif self._any_at_stop:
                 self._at_stop = [False] * 4
                 self._any_at_stop = False
-            # tip (TipKinematics.tip, inlined)
-            a23 = q1 + q2
-            c23, s23 = cos(a23), sin(a23)
-            ext = jib + q3
-            radial = off + boom * cos(q1) + ext * c23 - toff * s23
-            nx, ny, nz = radial * cos(q0), radial * sin(q0), height + boom * sin(q1) + ext * s23 + toff * c23
+            nx, ny, nz = tip(q0, q1, q2, q3)
             # grapple: position Verlet with damping on the velocity relative to the tip ...
             sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
             cx = gx + sx - damp * (sx - (tx - tpx))

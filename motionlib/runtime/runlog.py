@@ -23,7 +23,7 @@ from ..errors import LibraryFileError
 from ..fileio import atomic_output, json_default
 from ..model.kinematics import Crane
 
-RUNLOG_SCHEMA = "motionlib.runtime.runlog"
+RUNLOG_SCHEMA = "motionlib.runlog"
 RUNLOG_VERSION = 1
 _FD_EPS = 1e-6
 

@@ -2,8 +2,8 @@
 
 Modules
 -------
-plots
-    Matplotlib figures of a plan (phase plane, joints, path), a run and a library's coverage.
+plan_plots
+    Figures of a plan: phase plane (003 Fig. 4.1), joints against limits, the path in 3D.
 meshes
     Triangle meshes of obstacles and capsules.
 viewer

@@ -7,11 +7,11 @@ points), the crane (links and grapple as capsule meshes, :mod:`motionlib.viz.mes
 and what the file holds. Each file kind is one function in :data:`KINDS`, keyed
 by the file's root ``schema`` attribute:
 
-``motionlib.planning.trajectory`` (a plan file, ``motionlib plan -o``): :func:`trajectory_view`
+``motionlib.trajectory`` (a plan file, ``motionlib plan -o``): :func:`trajectory_view`
     the tip path and an animation of the crane with a time slider and a play button.
-``motionlib.library.store`` (``motionlib build``): :func:`library_view`
+``motionlib.library`` (``motionlib build``): :func:`library_view`
     every end point coloured by duration; hovering over or clicking one shows its path.
-``motionlib.runtime.runlog`` (``motionlib execute --log``): :func:`runlog_view`
+``motionlib.runlog`` (``motionlib execute --log``): :func:`runlog_view`
     the run animated: the crane, the tip's actual path coloured by the automation's
     share c_a, the planned path and the target.
 
@@ -38,11 +38,14 @@ import plotly.graph_objects as go
 
 from ..checks import check_scalar
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output
-from ..model.crane_model import CraneModel
+from ..fileio import atomic_output, hdf5_errors
+from ..library.store import Library, entry_id
+from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory, read_trajectory
+from ..runtime.control_types import Authority
+from ..runtime.runlog import read_runlog
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
 
 # Colours (tests/test_viewer.py finds the arm in screenshots by ARM_COLOUR's hue).
@@ -361,42 +364,6 @@ def add_animation(
     )
 
 
-# ====================================================================== files
-def _root_json(f: h5py.File, key: str) -> Any:
-    value = f.attrs.get(key)
-    if isinstance(value, bytes):
-        value = value.decode()
-    if not isinstance(value, str) or not value.startswith("json:"):
-        raise LibraryFileError(f"{f.filename}: root attribute {key!r} is missing or not JSON")
-    return json.loads(value[5:])
-
-
-def crane_from_record(record: dict[str, Any]) -> Crane:
-    """The crane of an embedded ``crane_model`` record (the :meth:`CraneModel.to_dict` form)."""
-    return Crane(CraneModel.from_dict(record))
-
-
-def embedded_crane_scene(f: h5py.File) -> tuple[Crane, Scene]:
-    """The crane and scene embedded in a plan or library file (root ``crane_model``, ``scene_model``).
-
-    Raises
-    ------
-    LibraryFileError
-        A record is missing or malformed, or the crane does not match the file's ``crane_digest``.
-    """
-    try:
-        crane = crane_from_record(_root_json(f, "crane_model"))
-    except (TypeError, KeyError) as exc:
-        raise LibraryFileError(f"{f.filename}: root attribute 'crane_model' is not a crane model ({exc})") from exc
-    digest = f.attrs.get("crane_digest")
-    if isinstance(digest, bytes):
-        digest = digest.decode()
-    if digest is not None and digest != crane.model.digest:
-        raise LibraryFileError(f"{f.filename}: the embedded crane model does not match the crane_digest attribute")
-    scene = Scene.from_dict(_root_json(f, "scene_model"), f"{f.filename}:scene_model", crane=crane)
-    return crane, scene
-
-
 # ====================================================================== kinds
 def trajectory_figure(crane: Crane, scene: Scene, traj: Trajectory, options: ViewOptions = ViewOptions()) -> go.Figure:
     """The view of one trajectory: scene, tip path, end pose, and the crane animated with a time slider.
@@ -409,9 +376,9 @@ def trajectory_figure(crane: Crane, scene: Scene, traj: Trajectory, options: Vie
         ``t`` (N,) s and ``q`` (N, 4) are animated, ``path_tip`` (M, 3) m is drawn.
     options : ViewOptions
     """
-    drawing = CraneDrawing(crane, bool(traj.attrs.get("loaded", False)), options.segments)
+    drawing = CraneDrawing(crane, traj.info.loaded, options.segments)
     path = traj.path_tip
-    goal = np.asarray(traj.attrs.get("goal_p", path[-1]), dtype=np.float64)
+    goal = np.asarray(traj.info.goal_p, dtype=np.float64)
     fig = go.Figure(scene_traces(scene, options.segments))
     fig.add_trace(mesh_trace(*drawing.column(), COLUMN_COLOUR, "column", flat=False))
     fig.add_trace(
@@ -436,7 +403,7 @@ def trajectory_figure(crane: Crane, scene: Scene, traj: Trajectory, options: Vie
     frames = [[_tip_trace(tip), *drawing.frame_traces(q)] for q, tip in zip(q_frames, tips, strict=True)]
     base = (
         f"{scene.name}, {crane.name} crane: {traj.duration_s:.2f} s over "
-        f"{traj.attrs.get('path_length_m', float('nan')):.2f} m ({traj.attrs.get('profile', '?')} telescope)"
+        f"{traj.info.path_length_m:.2f} m ({traj.info.profile} telescope)"
     )
     titles = [f"{base}, t = {t:.1f} s" for t in times]
     add_animation(fig, times, frames, [first, first + 1, first + 2], titles)
@@ -452,9 +419,9 @@ def _tip_trace(tip: np.ndarray) -> go.Scatter3d:
 
 
 def trajectory_view(path: Path, options: ViewOptions) -> View:
-    """Kind ``motionlib.planning.trajectory``: a plan file, animated."""
-    with h5py.File(path, "r") as f:
-        crane, scene = embedded_crane_scene(f)
+    """Kind ``motionlib.trajectory``: a plan file, animated."""
+    with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
+        crane, scene = embedded_models(f.attrs, str(path))
         traj = read_trajectory(f)
     return View(trajectory_figure(crane, scene, traj, options))
 
@@ -537,14 +504,12 @@ _LIBRARY_SCRIPT = """
 
 
 def library_view(path: Path, options: ViewOptions) -> View:
-    """Kind ``motionlib.library.store``: a motion library, its end points and (on hover or click) their paths."""
-    from ..library.store import Library, entry_id
-
+    """Kind ``motionlib.library``: a motion library, its end points and (on hover or click) their paths."""
     library = Library.open(path)
     if len(library) == 0:
         raise InputError(f"{path}: the library has no successful entries to show")
-    with h5py.File(path, "r") as f:
-        crane, scene = embedded_crane_scene(f)
+    crane, scene = library.crane, library.scene
+    with hdf5_errors(f"{path}: cannot read the library's paths"), h5py.File(path, "r") as f:
         # Every path in one pass over the open file (layout: docs/library-format.md).
         paths = [f[f"trajectories/{entry_id(e)}/path/tip"][()] for e in library.entry]
     fig = library_figure(library, crane, scene, paths, options)
@@ -631,8 +596,6 @@ def runlog_figure(
 
 
 def _authority_name(value: int) -> str:
-    from ..runtime.control_types import Authority
-
     try:
         return Authority(value).name.lower()
     except ValueError:
@@ -657,14 +620,12 @@ def _runlog_library(path: Path, recorded: str | None, given: str | None) -> Path
 
 
 def runlog_view(path: Path, options: ViewOptions) -> View:
-    """Kind ``motionlib.runtime.runlog``: a shared-control run, animated (crane and scene from its library)."""
-    from ..library.store import Library
-    from ..runtime.runlog import read_runlog
-
+    """Kind ``motionlib.runlog``: a shared-control run, animated (crane and scene from its library)."""
     log = read_runlog(path)
     attrs = log["attrs"]
-    with h5py.File(path, "r") as f:
-        embedded = embedded_crane_scene(f) if "crane_model" in f.attrs and "scene_model" in f.attrs else None
+    with hdf5_errors(f"{path}: not a readable run log"), h5py.File(path, "r") as f:
+        has_models = CRANE_ATTR in f.attrs and SCENE_ATTR in f.attrs
+        embedded = embedded_models(f.attrs, str(path)) if has_models else None
     try:
         library_path = _runlog_library(path, attrs.get("library"), options.library)
     except LibraryFileError:
@@ -675,8 +636,8 @@ def runlog_view(path: Path, options: ViewOptions) -> View:
     if embedded is not None:
         crane, scene = embedded
     else:
-        with h5py.File(library_path, "r") as f:
-            crane, scene = embedded_crane_scene(f)
+        lib = Library.open(library_path)
+        crane, scene = lib.crane, lib.scene
     if attrs.get("crane") not in (None, crane.name):
         raise LibraryFileError(f"{path}: the run log is of crane {attrs['crane']!r}, its library of {crane.name!r}")
     row = attrs.get("row")
@@ -689,9 +650,9 @@ def runlog_view(path: Path, options: ViewOptions) -> View:
 
 #: File kinds: root ``schema`` attribute -> function (file, options) -> View.
 KINDS: dict[str, Callable[[Path, ViewOptions], View]] = {
-    "motionlib.planning.trajectory": trajectory_view,
-    "motionlib.library.store": library_view,
-    "motionlib.runtime.runlog": runlog_view,
+    "motionlib.trajectory": trajectory_view,
+    "motionlib.library": library_view,
+    "motionlib.runlog": runlog_view,
 }
 
 

@@ -12,19 +12,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ..model.crane_model import JOINT_NAMES  # noqa: E402
-from ..model.kinematics import Crane  # noqa: E402
-from ..model.limits import limits_for  # noqa: E402
-from ..model.scene import Scene  # noqa: E402
-from ..planning.phase_plane import phase_plane_time  # noqa: E402
-from ..planning.redundancy import TelescopeProfile, joint_path  # noqa: E402
-from ..planning.trajectory import Trajectory  # noqa: E402
+from ..model.crane_model import JOINT_NAMES
+from ..model.kinematics import Crane
+from ..model.limits import limits_for
+from ..model.scene import Scene
+from ..planning.phase_plane import phase_plane_time
+from ..planning.redundancy import TelescopeProfile, joint_path
+from ..planning.trajectory import Trajectory
+from .figures import new_figure, save_figure
 
 UNITS = ("rad", "rad", "rad", "m")
 
@@ -34,20 +32,14 @@ def plot_plan(out_dir: Path, crane: Crane, scene: Scene, traj: Trajectory) -> li
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [
-        _save(phase_plane_figure(crane, traj), out_dir / "phase_plane.png"),
-        _save(joints_figure(crane, traj), out_dir / "joints.png"),
-        _save(path3d_figure(crane, scene, traj), out_dir / "path3d.png"),
+        save_figure(phase_plane_figure(crane, traj), out_dir / "phase_plane.png"),
+        save_figure(joints_figure(crane, traj), out_dir / "joints.png"),
+        save_figure(path3d_figure(crane, scene, traj), out_dir / "path3d.png"),
     ]
     return paths
 
 
-def _save(fig: plt.Figure, path: Path) -> Path:
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    return path
-
-
-def phase_plane_figure(crane: Crane, traj: Trajectory) -> plt.Figure:
+def phase_plane_figure(crane: Crane, traj: Trajectory) -> Figure:
     """003 Fig. 4.1 for a trajectory: velocity bounds in the (s, s_dot) plane and the chosen profile."""
     s = traj.path_s
     profile = TelescopeProfile(traj.telescope_control_points, float(s[-1]))
@@ -57,7 +49,7 @@ def phase_plane_figure(crane: Crane, traj: Trajectory) -> plt.Figure:
     s_of_t = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tips, axis=0), axis=1))])
     sd_of_t = np.linalg.norm(np.einsum("nij,nj->ni", _jacobians(crane, traj.q), traj.qd), axis=1)
 
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = new_figure(figsize=(8, 4.5))
     for j, label in enumerate(pp.labels):
         bound = np.where(np.isfinite(pp.bounds[:, j]), pp.bounds[:, j], np.nan)
         ax.plot(s, bound, "--", lw=1, label=label.split(":")[-1] + " bound")
@@ -73,9 +65,9 @@ def phase_plane_figure(crane: Crane, traj: Trajectory) -> plt.Figure:
     return fig
 
 
-def joints_figure(crane: Crane, traj: Trajectory) -> plt.Figure:
+def joints_figure(crane: Crane, traj: Trajectory) -> Figure:
     """Joint positions, velocities and accelerations (rows) against their limits."""
-    fig, axes = plt.subplots(3, 4, figsize=(14, 8), sharex=True)
+    fig, axes = new_figure(3, 4, figsize=(14, 8), sharex=True)
     rows = (
         (traj.q, crane.q_min, crane.q_max, ""),
         (traj.qd, crane.qd_min, crane.qd_max, "/s"),
@@ -98,9 +90,9 @@ def joints_figure(crane: Crane, traj: Trajectory) -> plt.Figure:
     return fig
 
 
-def path3d_figure(crane: Crane, scene: Scene, traj: Trajectory) -> plt.Figure:
+def path3d_figure(crane: Crane, scene: Scene, traj: Trajectory) -> Figure:
     """The tip path in 3D with the scene's obstacles and the crane at start and end."""
-    fig = plt.figure(figsize=(8, 7))
+    fig = Figure(figsize=(8, 7))
     ax = fig.add_subplot(projection="3d")
     for ob in scene.obstacles:
         _draw_obstacle(ax, ob)
@@ -117,7 +109,7 @@ def path3d_figure(crane: Crane, scene: Scene, traj: Trajectory) -> plt.Figure:
     ax.set_ylim(-reach, reach)
     ax.set_zlim(0, reach)
     ax.legend()
-    ax.set_title(f"{scene.name}: tip path {traj.attrs.get('path_length_m', float('nan')):.2f} m")
+    ax.set_title(f"{scene.name}: tip path {traj.info.path_length_m:.2f} m")
     return fig
 
 

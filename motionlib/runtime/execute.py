@@ -1,0 +1,213 @@
+"""One call that runs a trajectory in the shared-control loop on the simulated crane.
+
+:func:`execute` builds what a run needs and nothing else: the obstacle guard ``c_o``
+(optional), the :class:`~motionlib.runtime.controller.SharedController` in the chosen mode
+with the trajectory as its automated motion, the simulated crane
+(:class:`~motionlib.runtime.plant.SimulatedCrane`) at the start configuration, the operator
+model, and the run log; it runs :func:`~motionlib.runtime.loop.run_closed_loop` until the tip
+settles or the time limit, and measures the run (:func:`~motionlib.runtime.metrics.run_summary`).
+``motionlib execute``, notebook 03, the experiment's benchmark and the safety tests all call it.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..checks import check_scalar, check_vector
+from ..errors import ExecutionError, InputError
+from ..model.collision import CollisionChecker
+from ..model.kinematics import Crane
+from ..model.scene import Scene
+from ..planning.trajectory import Trajectory
+from .control_types import ControllerParams, Mode
+from .controller import SharedController
+from .loop import LoopOptions, LoopResult, run_closed_loop
+from .metrics import RunSummary, run_summary
+from .mixer import MixerParams, ObstacleGuard
+from .operators import Operator, make_operator
+from .plant import SimParams, SimulatedCrane
+from .runlog import RunLog, write_runlog
+from .tracker import TrackerParams
+
+
+@dataclass(frozen=True)
+class ExecuteOptions:
+    """Options of :func:`execute`.
+
+    Attributes
+    ----------
+    seed : int
+        Seed of the operator model and of the plant's valve noise.
+    time_limit_s : float
+        Longest simulated time (s).
+    obstacle_guard : bool
+        Scale operator velocities toward obstacles down (the mixer's ``c_o``, 000 eq. 4).
+    sim : SimParams
+        The simulated crane (its ``seed`` is replaced by ``seed``).
+    controller, mixer, tracker : ControllerParams, MixerParams, TrackerParams
+        Controller parameters; the defaults are documented in docs/runtime.md.
+    loop : LoopOptions
+        When the run counts as settled (its ``time_limit_s`` is replaced by ``time_limit_s``).
+    """
+
+    seed: int = 0
+    time_limit_s: float = 60.0
+    obstacle_guard: bool = True
+    sim: SimParams = field(default_factory=SimParams)
+    controller: ControllerParams = field(default_factory=ControllerParams)
+    mixer: MixerParams = field(default_factory=MixerParams)
+    tracker: TrackerParams = field(default_factory=TrackerParams)
+    loop: LoopOptions = field(default_factory=LoopOptions)
+
+    def __post_init__(self) -> None:
+        check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
+            raise InputError(f"seed: expected an integer >= 0, got {self.seed!r}")
+
+
+class RunStatus(enum.Enum):
+    """How a run ended."""
+
+    SETTLED = "settled"  # the tip came to rest with no automated motion running and the operator done
+    TIME_LIMIT = "time_limit"  # the time limit was reached first
+
+
+@dataclass
+class RunResult:
+    """Result of :func:`execute`.
+
+    Attributes
+    ----------
+    status : RunStatus
+    reason : str
+        One line; empty when settled.
+    summary : RunSummary
+        Cycle time, final error, total jerk, peaks, deviation, handover, swing.
+    log : RunLog
+        The 200 Hz log (states, commands, mixing, flags) and the events.
+    arrays : dict of str to ndarray
+        :meth:`RunLog.arrays` with the tip's position and velocity (``tip_p``, ``tip_v``, (N, 3), m and m/s).
+    loop : LoopResult
+        Steps, wall time, real-time factor and diagnostics (hard-stop hits, fcl calls).
+    mode : Mode
+    target_p : ndarray, shape (3,)
+        The operator's target (m, base frame).
+    trajectory : Trajectory or None
+        The executed trajectory.
+    """
+
+    status: RunStatus
+    reason: str
+    summary: RunSummary
+    log: RunLog
+    arrays: dict[str, np.ndarray]
+    loop: LoopResult
+    mode: Mode
+    target_p: np.ndarray
+    trajectory: Trajectory | None
+
+    @property
+    def settled(self) -> bool:
+        return self.status is RunStatus.SETTLED
+
+    def raise_for_status(self) -> RunResult:
+        """Return self when the run settled, else raise :class:`ExecutionError`."""
+        if not self.settled:
+            raise ExecutionError(self.reason)
+        return self
+
+    def write_log(self, path: str | Path, crane: Crane, extra: Mapping[str, Any] | None = None) -> Path:
+        """Write the run log (HDF5, docs/runtime.md) with the summary and ``extra`` summary keys."""
+        return write_runlog(path, self.log, crane, {**self.summary.to_dict(), **(extra or {})})
+
+
+def execute(
+    trajectory: Trajectory | None,
+    crane: Crane,
+    scene: Scene,
+    *,
+    mode: Mode | str = Mode.M6,
+    operator: str | Path | Operator = "passive",
+    target: Any = None,
+    start_q: Any = None,
+    options: ExecuteOptions | None = None,
+    log_attrs: Mapping[str, Any] | None = None,
+) -> RunResult:
+    """Run ``trajectory`` in the shared-control loop on the simulated crane (000 sections 2-3).
+
+    Parameters
+    ----------
+    trajectory : Trajectory or None
+        The automated motion (a library entry or a plan); None runs the operator alone.
+    crane : Crane
+        The crane the trajectory was planned for.
+    scene : Scene
+        Its scene (for the obstacle guard).
+    mode : Mode or str
+        ``M1`` .. ``M6`` (000 section 3.3).
+    operator : str, Path or Operator
+        ``passive``, ``novice``, ``expert``, a stick script (.csv, docs/runtime.md), or an object
+        with ``input(obs) -> OperatorInput`` and ``done(obs) -> bool``
+        (:mod:`motionlib.runtime.operators`).
+    target : array_like, shape (3,), optional
+        The operator's target tip point (m); default the trajectory's end.
+    start_q : array_like, shape (4,), optional
+        Start configuration of the crane (rad, rad, rad, m); default the trajectory's start.
+    options : ExecuteOptions, optional
+    log_attrs : mapping, optional
+        Extra attributes stored with the run log (e.g. the library and row it came from).
+
+    Returns
+    -------
+    RunResult
+
+    Raises
+    ------
+    InputError
+        Bad mode, operator, target or start configuration.
+    """
+    opts = options or ExecuteOptions()
+    mode = Mode.parse(mode)
+    if trajectory is None and (target is None or start_q is None):
+        raise InputError("execute: without a trajectory, give both target and start_q")
+    target_p = check_vector(target if target is not None else trajectory.path_tip[-1], 3, "target")  # type: ignore[union-attr]
+    q0 = check_vector(start_q if start_q is not None else trajectory.q[0], 4, "start_q")  # type: ignore[union-attr]
+    if not crane.within_limits(q0):
+        raise InputError(f"start_q: {q0.tolist()} is outside the joint limits of crane {crane.name!r}")
+    loaded = trajectory.info.loaded if trajectory is not None else False
+
+    guard = ObstacleGuard(CollisionChecker(crane, scene), loaded=loaded) if opts.obstacle_guard else None
+    controller = SharedController(crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard)
+    if trajectory is not None:
+        controller.start_motion(trajectory)
+    sim = SimulatedCrane(crane, q0, replace(opts.sim, seed=opts.seed))
+    if isinstance(operator, str | Path):
+        via = trajectory.waypoints[1:-1] if trajectory is not None else None
+        op: Operator = make_operator(str(operator), target_p, mode, controller.joystick, crane, seed=opts.seed, via=via)
+    else:
+        op = operator
+    log = RunLog(
+        attrs={
+            "mode": mode.value,
+            "operator": str(operator) if isinstance(operator, str | Path) else type(operator).__name__,
+            "seed": opts.seed,
+            "target_p": target_p.tolist(),
+            "start_q": q0.tolist(),
+            "noise": opts.sim.noise_frac,
+            "scene": scene.name,
+            "loaded": loaded,
+            **dict(log_attrs or {}),
+        }
+    )
+    loop = run_closed_loop(controller, sim, op, replace(opts.loop, time_limit_s=opts.time_limit_s), log)
+    arrays = log.arrays(crane)
+    summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
+    status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT
+    reason = "" if loop.settled else f"the tip had not settled after the time limit of {opts.time_limit_s:g} s"
+    return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory)
