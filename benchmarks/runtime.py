@@ -29,15 +29,10 @@ import time
 
 import numpy as np
 
-from motionlib.model.collision import CollisionChecker
-from motionlib.model.kinematics import Crane
-from motionlib.model.scene import Scene
-from motionlib.planning.planner import Planner, PlanOptions
-from motionlib.runtime.controller import SharedController
+from motionlib import Crane, ExecuteOptions, PlanOptions, Scene, plan
+from motionlib.runtime.execute import prepare_run
 from motionlib.runtime.loop import LoopOptions, run_closed_loop
-from motionlib.runtime.mixer import ObstacleGuard
 from motionlib.runtime.operators import make_operator
-from motionlib.runtime.plant import SimulatedCrane
 
 SCENARIOS = (
     ("M6 passive", "out", "M6", "passive"),
@@ -63,11 +58,10 @@ class _Timed:
         return out
 
 
-def _setup(crane, scene, checkers, traj, mode, operator, target, seed=0):
-    loaded = traj.info.loaded
-    ctl = SharedController(crane, mode, obstacle_guard=ObstacleGuard(checkers[loaded], loaded=loaded))
+def _setup(crane, scene, traj, mode, operator, target, seed=0):
+    """What ``motionlib.execute`` runs, as objects (so that each step can be timed)."""
+    ctl, sim = prepare_run(crane, scene, mode, traj.q[0], loaded=traj.info.loaded, options=ExecuteOptions(seed=seed))
     ctl.start_motion(traj)
-    sim = SimulatedCrane(crane, traj.q[0])
     op = make_operator(operator, target, ctl.mode, ctl.joystick, crane, seed=seed, via=traj.waypoints[1:-1])
     return ctl, sim, op
 
@@ -78,12 +72,9 @@ def main() -> None:
     args = parser.parse_args()
     crane = Crane.load("lab")
     scene = Scene.load("obstacles/log-loading.yaml")
-    checkers = {False: CollisionChecker(crane, scene), True: CollisionChecker(crane, scene)}
     trajs = {
-        "out": Planner(crane, scene).plan(scene.start("target-center"), scene.point("pickup-between")).trajectory,
-        "back": Planner(crane, scene, PlanOptions(loaded=True)).plan(
-            scene.start("pickup-a"), scene.point("target-center")
-        ).trajectory,
+        "out": plan(crane, scene, "target-center", "pickup-between").raise_for_status().trajectory,
+        "back": plan(crane, scene, "pickup-a", "target-center", PlanOptions(loaded=True)).raise_for_status().trajectory,
     }
     offsets = {"out": np.array([0.1, 0.12, -0.05]), "back": np.array([-0.15, 0.1, 0.05])}
 
@@ -99,7 +90,7 @@ def main() -> None:
         traj = trajs[which]
         target = crane.fk(traj.q[-1]) + (0.0 if operator == "passive" else offsets[which])
         # timed run: every step and advance measured
-        ctl, sim, op = _setup(crane, scene, checkers, traj, mode, operator, target)
+        ctl, sim, op = _setup(crane, scene, traj, mode, operator, target)
         step, adv = _Timed(ctl.step), _Timed(sim.advance)
         ctl.step, sim.advance = step, adv
         res = run_closed_loop(ctl, sim, op, LoopOptions(time_limit_s=60.0))
@@ -108,7 +99,7 @@ def main() -> None:
         # untimed runs for the loop speed
         best = np.inf
         for _ in range(args.repeat):
-            ctl, sim, op = _setup(crane, scene, checkers, traj, mode, operator, target)
+            ctl, sim, op = _setup(crane, scene, traj, mode, operator, target)
             r = run_closed_loop(ctl, sim, op, LoopOptions(time_limit_s=60.0))
             best = min(best, r.wall_time_s)
         simulated = r.log.t_end

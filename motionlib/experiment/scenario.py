@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_scalar
+from ..checks import check_int, check_params, param
 from ..errors import InputError
 from ..model.scene import Scene
 
@@ -98,15 +98,15 @@ class ScenarioOptions:
         Scene region of the target area.
     """
 
-    grab_height_m: float = 0.9
-    release_height_m: float = 1.0
-    release_spacing_m: float = 0.3
-    area_radius_m: float = 1.0
-    grab_dwell_s: float = 1.5
-    release_dwell_s: float = 1.0
-    grab_across_m: float = 0.15
-    grab_along_m: float = 0.4
-    grab_height_tol_m: float = 0.15
+    grab_height_m: float = param(0.9, gt=0.0)
+    release_height_m: float = param(1.0, gt=0.0)
+    release_spacing_m: float = param(0.3, gt=0.0)
+    area_radius_m: float = param(1.0, gt=0.0)
+    grab_dwell_s: float = param(1.5, gt=0.0)
+    release_dwell_s: float = param(1.0, gt=0.0)
+    grab_across_m: float = param(0.15, gt=0.0)
+    grab_along_m: float = param(0.4, gt=0.0)
+    grab_height_tol_m: float = param(0.15, gt=0.0)
     max_attempts: int = 4
     automation_ends: str = "fixed"
     fix_point: str = "pickup-between"
@@ -114,11 +114,8 @@ class ScenarioOptions:
     target_region: str = "target"
 
     def __post_init__(self) -> None:
-        for name in ("grab_height_m", "release_height_m", "release_spacing_m", "area_radius_m", "grab_dwell_s",
-                     "release_dwell_s", "grab_across_m", "grab_along_m", "grab_height_tol_m"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        if isinstance(self.max_attempts, bool) or not isinstance(self.max_attempts, int) or self.max_attempts < 1:
-            raise InputError(f"max_attempts: expected an integer >= 1, got {self.max_attempts!r}")
+        check_params(self)
+        check_int(self.max_attempts, "max_attempts", 1)
         if self.automation_ends not in AUTOMATION_ENDS:
             raise InputError(f"automation_ends: expected one of {AUTOMATION_ENDS}, got {self.automation_ends!r}")
 

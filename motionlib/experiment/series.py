@@ -36,14 +36,11 @@ import numpy as np
 from ..errors import InputError, MotionlibError
 from ..library.selection import SelectionStatus
 from ..library.store import Library
-from ..model.collision import CollisionChecker
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
 from ..runtime.control_types import Mode
-from ..runtime.controller import SharedController
-from ..runtime.loop import LoopOptions, run_closed_loop
-from ..runtime.mixer import ObstacleGuard
-from ..runtime.plant import SimulatedCrane
+from ..runtime.execute import ExecuteOptions, prepare_run
+from ..runtime.loop import run_closed_loop
 from ..runtime.runlog import RunLog
 from .measures import Signals
 from .panel import panel_operator
@@ -263,12 +260,11 @@ class ExperimentContext:
         self.scene = self.library.scene
         self.scenario = Scenario.from_scene(self.scene, self.options.scenario)
         self.motions = LibraryMotions(self.library)
-        self.checker = None
-        if self.options.guard:
-            data = self.scene.to_dict()
-            data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
-            guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
-            self.checker = CollisionChecker(self.crane, guard_scene)
+        # the obstacle guard must not push the grapple away from the logs it is to grab
+        data = self.scene.to_dict()
+        data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
+        self.guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
+        self.execute_options = ExecuteOptions(time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard)
 
 
 # ====================================================================== one series
@@ -299,13 +295,11 @@ def run_series(
     n_cycles = len(ctx.scenario.logs) if cycles is None else int(cycles)
     result = SeriesResult(member.name, member.group, mode.value, int(series), n_cycles)
     t_wall = time.perf_counter()
-    guard = ObstacleGuard(ctx.checker) if ctx.checker is not None else None
-    controller = SharedController(ctx.crane, mode, obstacle_guard=guard)
-    sim = SimulatedCrane(ctx.crane, ctx.scenario.start_q)
+    controller, sim = prepare_run(ctx.crane, ctx.guard_scene, mode, ctx.scenario.start_q, options=ctx.execute_options)
     task = LoadingTask(ctx.scenario, member, controller, sim, ctx.motions, series=series, cycles=n_cycles)
     log = RunLog()
     try:
-        loop = run_closed_loop(controller, sim, task, LoopOptions(time_limit_s=ctx.options.time_limit_s), log)
+        loop = run_closed_loop(controller, sim, task, ctx.execute_options.loop_options(), log)
     except MotionlibError as exc:
         result.error = str(exc)
         result.wall_s = time.perf_counter() - t_wall

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_scalar, check_vector
+from ..checks import check_params, check_vector, param
 from ..errors import InputError
 from ..model.fast_kinematics import Vec3, Vec4
 
@@ -197,28 +197,23 @@ class ControllerParams:
         ahead with its measured velocity (the valve lag of the actuators).
     """
 
-    dt_s: float = 0.005
-    stale_after_s: float = 0.1
+    dt_s: float = param(0.005, gt=0.0)
+    stale_after_s: float = param(0.1, gt=0.0)
     weights: tuple[float, float, float, float] | None = None
-    limit_weight_margin: float = 0.15
-    limit_weight_floor: float = 1e-3
-    sigma_threshold: float = 0.05
-    damping_max: float = 0.05
-    operator_weight_raise: float = 10.0
-    operator_weight_lower: float = 0.1
-    operator_activity_axis: float = 0.2
-    centering_gain_per_s: float = 0.0
-    limit_margin_frac: float = 0.01
-    brake_decel_frac: float = 0.5
-    lag_s: float = 0.05
+    limit_weight_margin: float = param(0.15, gt=0.0)
+    limit_weight_floor: float = param(1e-3, gt=0.0)
+    sigma_threshold: float = param(0.05, gt=0.0)
+    damping_max: float = param(0.05, ge=0.0)
+    operator_weight_raise: float = param(10.0, gt=0.0)
+    operator_weight_lower: float = param(0.1, gt=0.0)
+    operator_activity_axis: float = param(0.2, gt=0.0)
+    centering_gain_per_s: float = param(0.0, ge=0.0)
+    limit_margin_frac: float = param(0.01, ge=0.0)
+    brake_decel_frac: float = param(0.5, gt=0.0, le=1.0)
+    lag_s: float = param(0.05, ge=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("dt_s", "stale_after_s", "limit_weight_margin", "limit_weight_floor", "sigma_threshold",
-                     "operator_weight_raise", "operator_weight_lower", "operator_activity_axis"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        for name in ("damping_max", "centering_gain_per_s", "limit_margin_frac", "lag_s"):
-            check_scalar(getattr(self, name), name, ge=0.0)
-        check_scalar(self.brake_decel_frac, "brake_decel_frac", gt=0.0, le=1.0)
+        check_params(self)
         if self.weights is not None:
             w = check_vector(self.weights, 4, "weights")
             if not np.all(w > 0.0):

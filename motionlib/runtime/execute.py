@@ -71,6 +71,11 @@ class ExecuteOptions:
             raise InputError(f"seed: expected an integer >= 0, got {self.seed!r}")
 
 
+    def loop_options(self) -> LoopOptions:
+        """The loop's settle conditions with this run's time limit."""
+        return replace(self.loop, time_limit_s=self.time_limit_s)
+
+
 class RunStatus(enum.Enum):
     """How a run ended."""
 
@@ -125,6 +130,32 @@ class RunResult:
     def write_log(self, path: str | Path, crane: Crane, extra: Mapping[str, Any] | None = None) -> Path:
         """Write the run log (HDF5, docs/runtime.md) with the summary and ``extra`` summary keys."""
         return write_runlog(path, self.log, crane, {**self.summary.to_dict(), **(extra or {})})
+
+
+def prepare_run(
+    crane: Crane, scene: Scene, mode: Mode | str, start_q: Any, *, loaded: bool = False,
+    options: ExecuteOptions | None = None,
+) -> tuple[SharedController, SimulatedCrane]:
+    """The controller (with the obstacle guard of ``options``) and the simulated crane of a run.
+
+    What :func:`execute` runs; for callers that drive the loop themselves (the experiment's
+    work cycles start several motions, a benchmark times each step).
+
+    Parameters
+    ----------
+    crane, scene : Crane, Scene
+    mode : Mode or str
+    start_q : array_like, shape (4,)
+        Start configuration of the simulated crane (rad, rad, rad, m).
+    loaded : bool
+        The grapple carries a log (the obstacle guard's geometry).
+    options : ExecuteOptions, optional
+    """
+    opts = options or ExecuteOptions()
+    guard = ObstacleGuard(CollisionChecker(crane, scene), loaded=loaded) if opts.obstacle_guard else None
+    controller = SharedController(crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard)
+    sim = SimulatedCrane(crane, start_q, replace(opts.sim, seed=opts.seed))
+    return controller, sim
 
 
 def execute(
@@ -182,11 +213,9 @@ def execute(
         raise InputError(f"start_q: {q0.tolist()} is outside the joint limits of crane {crane.name!r}")
     loaded = trajectory.info.loaded if trajectory is not None else False
 
-    guard = ObstacleGuard(CollisionChecker(crane, scene), loaded=loaded) if opts.obstacle_guard else None
-    controller = SharedController(crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard)
+    controller, sim = prepare_run(crane, scene, mode, q0, loaded=loaded, options=opts)
     if trajectory is not None:
         controller.start_motion(trajectory)
-    sim = SimulatedCrane(crane, q0, replace(opts.sim, seed=opts.seed))
     if isinstance(operator, str | Path):
         via = trajectory.waypoints[1:-1] if trajectory is not None else None
         op: Operator = make_operator(str(operator), target_p, mode, controller.joystick, crane, seed=opts.seed, via=via)
@@ -205,7 +234,7 @@ def execute(
             **dict(log_attrs or {}),
         }
     )
-    loop = run_closed_loop(controller, sim, op, replace(opts.loop, time_limit_s=opts.time_limit_s), log)
+    loop = run_closed_loop(controller, sim, op, opts.loop_options(), log)
     arrays = log.arrays(crane)
     summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT

@@ -11,7 +11,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
-from ..checks import check_scalar
+from ..checks import check_params, param
 from .control_types import Authority
 from .controller import SharedController
 from .operators import Observation, Operator
@@ -33,13 +33,12 @@ class LoopOptions:
         ... for this long (s), with no automated motion running and the operator done.
     """
 
-    time_limit_s: float = 60.0
-    settle_speed_m_s: float = 0.01
-    settle_hold_s: float = 0.3
+    time_limit_s: float = param(60.0, gt=0.0)
+    settle_speed_m_s: float = param(0.01, gt=0.0)
+    settle_hold_s: float = param(0.3, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("time_limit_s", "settle_speed_m_s", "settle_hold_s"):
-            check_scalar(getattr(self, name), name, gt=0.0)
+        check_params(self)
 
 
 @dataclass

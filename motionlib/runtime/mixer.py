@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..checks import check_scalar
+from ..checks import check_params, check_scalar, param
 from ..errors import InputError
 from ..model.collision import CollisionChecker
 
@@ -93,25 +93,19 @@ class MixerParams:
         Clearance (m) below which the operator's velocity toward the nearest obstacle is scaled down.
     """
 
-    v_operator_max_m_s: float = 0.8
-    weak_speed_factor: float = 0.5
-    end_zone_radius_m: float = 1.0
-    far_distance_m: float = 0.5
-    far_factor: float = 0.5
-    zone_band_m: float = 0.1
-    takeover_speed_frac: float = 0.25
-    takeover_time_s: float = 0.5
-    t_o_decay: float = 1.0
-    obstacle_margin_m: float = 0.25
+    v_operator_max_m_s: float = param(0.8, gt=0.0)
+    weak_speed_factor: float = param(0.5, gt=0.0, le=1.0)
+    end_zone_radius_m: float = param(1.0, ge=0.0)
+    far_distance_m: float = param(0.5, gt=0.0)
+    far_factor: float = param(0.5, ge=0.0, le=1.0)
+    zone_band_m: float = param(0.1, gt=0.0)
+    takeover_speed_frac: float = param(0.25, ge=0.0, le=1.0)
+    takeover_time_s: float = param(0.5, gt=0.0)
+    t_o_decay: float = param(1.0, ge=0.0)
+    obstacle_margin_m: float = param(0.25, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("v_operator_max_m_s", "far_distance_m", "zone_band_m", "takeover_time_s", "obstacle_margin_m"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        for name in ("weak_speed_factor", "far_factor", "takeover_speed_frac"):
-            check_scalar(getattr(self, name), name, ge=0.0, le=1.0)
-        check_scalar(self.weak_speed_factor, "weak_speed_factor", gt=0.0)
-        check_scalar(self.end_zone_radius_m, "end_zone_radius_m", ge=0.0)
-        check_scalar(self.t_o_decay, "t_o_decay", ge=0.0)
+        check_params(self)
 
 
 class Mixer:

@@ -81,7 +81,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..checks import check_points, check_scalar, check_vector
+from ..checks import check_int, check_params, check_points, check_vector, param
 from ..errors import InputError, ModelFileError
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
@@ -91,6 +91,7 @@ from .sources import CartesianJoystick, JointJoystick, RateSource
 Vec3 = tuple[float, float, float]
 _ZERO4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO4_LIST = [0.0, 0.0, 0.0, 0.0]
+
 
 SCRIPT_COLUMNS: tuple[str, ...] = ("t", "left_x", "left_y", "right_x", "right_y", "abort", "dropout")
 """Columns of a stick script; ``dropout`` may be left out."""
@@ -246,27 +247,22 @@ class ScriptedStick:
 class OperatorParams:
     """Parameters of :class:`SimulatedOperator` (see the module docstring and ``OPERATOR_PRESETS``)."""
 
-    reaction_time_s: float = 0.5
-    gain_per_s: float = 0.8
-    max_speed_m_s: float = 0.35
-    precision_m: float = 0.05
-    noise: float = 0.05
-    noise_tau_s: float = 0.3
-    stick_tau_s: float = 0.08
-    update_period_s: float = 0.10
+    reaction_time_s: float = param(0.5, ge=0.0)
+    gain_per_s: float = param(0.8, gt=0.0)
+    max_speed_m_s: float = param(0.35, gt=0.0)
+    precision_m: float = param(0.05, gt=0.0)
+    noise: float = param(0.05, ge=0.0)
+    noise_tau_s: float = param(0.3, gt=0.0)
+    stick_tau_s: float = param(0.08, gt=0.0)
+    update_period_s: float = param(0.10, gt=0.0)
     max_joints: int = 1
-    takeover_distance_m: float = 0.3
-    via_radius_m: float = 0.25
-    settle_speed_m_s: float = 0.05
+    takeover_distance_m: float = param(0.3, ge=0.0)
+    via_radius_m: float = param(0.25, gt=0.0)
+    settle_speed_m_s: float = param(0.05, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("gain_per_s", "max_speed_m_s", "precision_m", "noise_tau_s", "stick_tau_s", "update_period_s",
-                     "via_radius_m", "settle_speed_m_s"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        for name in ("reaction_time_s", "noise", "takeover_distance_m"):
-            check_scalar(getattr(self, name), name, ge=0.0)
-        if isinstance(self.max_joints, bool) or not isinstance(self.max_joints, int) or not 1 <= self.max_joints <= 4:
-            raise InputError(f"max_joints: expected an integer in 1..4, got {self.max_joints!r}")
+        check_params(self)
+        check_int(self.max_joints, "max_joints", 1, 4)
 
 
 OPERATOR_PRESETS: dict[str, OperatorParams] = {

@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_scalar, check_vector
+from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..errors import InputError
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
@@ -74,25 +74,19 @@ class SimParams:
     gravity_m_s2 : float
     """
 
-    dt_sub_s: float = 0.001
-    tau_s: float = 0.05
-    accel_factor: float = 1.5
-    deadband_frac: float = 0.005
-    noise_frac: float = 0.0
+    dt_sub_s: float = param(0.001, gt=0.0)
+    tau_s: float = param(0.05, gt=0.0)
+    accel_factor: float = param(1.5, gt=0.0)
+    deadband_frac: float = param(0.005, ge=0.0)
+    noise_frac: float = param(0.0, ge=0.0)
     seed: int = 0
-    pendulum_length_m: float | None = None
-    swing_damping_per_s: float = 0.4
-    gravity_m_s2: float = GRAVITY_M_S2
+    pendulum_length_m: float | None = param(None, gt=0.0, optional=True)
+    swing_damping_per_s: float = param(0.4, ge=0.0)
+    gravity_m_s2: float = param(GRAVITY_M_S2, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("dt_sub_s", "tau_s", "accel_factor", "gravity_m_s2"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        for name in ("deadband_frac", "noise_frac", "swing_damping_per_s"):
-            check_scalar(getattr(self, name), name, ge=0.0)
-        if self.pendulum_length_m is not None:
-            check_scalar(self.pendulum_length_m, "pendulum_length_m", gt=0.0)
-        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
-            raise InputError(f"seed: expected an integer, got {self.seed!r}")
+        check_params(self)
+        check_int(self.seed, "seed")
 
 
 class SimulatedCrane:

@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_scalar
+from ..checks import check_params, check_scalar, param
 from ..errors import InputError
 from ..model.kinematics import Crane
 from ..planning.spline import TipSpline
@@ -91,25 +91,21 @@ class TrackerParams:
         ... and moving slower than this (m/s).
     """
 
-    s_min_m: float = 0.10
-    s_max_m: float = 0.40
-    lookahead_gain: float = 2.0
-    v_floor_m_s: float = 0.03
-    end_gain_per_s: float = 5.0
-    converge_speed_m_s: float = 0.3
-    lag_preview_s: float = 0.05
-    config_gain_per_s: float = 2.0
-    sample_step_m: float = 0.005
-    window_m: float = 1.0
-    arrive_tol_m: float = 0.01
-    arrive_speed_m_s: float = 0.02
+    s_min_m: float = param(0.10, gt=0.0)
+    s_max_m: float = param(0.40, gt=0.0)
+    lookahead_gain: float = param(2.0, ge=0.0)
+    v_floor_m_s: float = param(0.03, ge=0.0)
+    end_gain_per_s: float = param(5.0, ge=0.0)
+    converge_speed_m_s: float = param(0.3, ge=0.0)
+    lag_preview_s: float = param(0.05, ge=0.0)
+    config_gain_per_s: float = param(2.0, ge=0.0)
+    sample_step_m: float = param(0.005, gt=0.0)
+    window_m: float = param(1.0, gt=0.0)
+    arrive_tol_m: float = param(0.01, gt=0.0)
+    arrive_speed_m_s: float = param(0.02, gt=0.0)
 
     def __post_init__(self) -> None:
-        for name in ("s_min_m", "s_max_m", "sample_step_m", "window_m", "arrive_tol_m", "arrive_speed_m_s"):
-            check_scalar(getattr(self, name), name, gt=0.0)
-        for name in ("lookahead_gain", "v_floor_m_s", "end_gain_per_s", "converge_speed_m_s", "config_gain_per_s",
-                     "lag_preview_s"):
-            check_scalar(getattr(self, name), name, ge=0.0)
+        check_params(self)
         if self.s_max_m < self.s_min_m:
             raise InputError(f"s_max_m: expected >= s_min_m = {self.s_min_m}, got {self.s_max_m}")
 
