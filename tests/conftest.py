@@ -1,4 +1,8 @@
-"""Shared fixtures: the shipped cranes and seeded joint-space sampling."""
+"""Shared fixtures (the shipped cranes, seeded joint-space sampling) and the test tiers' markers.
+
+Tests marked ``notebook``, ``browser`` or ``cluster`` are also ``slow``, so that
+``pytest -m "not slow"`` leaves every long-running kind out.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +14,13 @@ import pytest
 from motionlib.model.kinematics import Crane
 
 SHIPPED_CRANES = ("lab", "forwarder")
+SLOW_KINDS = ("notebook", "browser", "cluster")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if any(item.get_closest_marker(kind) for kind in SLOW_KINDS):
+            item.add_marker(pytest.mark.slow)
 
 
 @pytest.fixture(scope="session", params=SHIPPED_CRANES)

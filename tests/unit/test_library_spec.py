@@ -14,7 +14,7 @@ from motionlib.errors import ModelFileError
 from motionlib.library.spec import SEED_MAX, LibrarySpec, entry_seed, grid_points
 from motionlib.model.collision import CollisionChecker
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
 
 

@@ -18,7 +18,7 @@ from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Obstacle, Scene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = sorted((ROOT / "obstacles").glob("*.yaml"))
 
 

@@ -25,7 +25,7 @@ from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.trajectory import StageReport, Trajectory, TrajectoryInfo
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
 STARTS = np.array([[0.0, 0.5235, -1.4434, 0.4], [1.5708, 0.482, -1.4267, 0.4], [2.4038, 0.4893, -1.4462, 0.4]])
 

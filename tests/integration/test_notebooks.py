@@ -19,7 +19,7 @@ from nbclient import NotebookClient
 
 from motionlib.library.spec import LibrarySpec
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 CELL_TIMEOUT_S = 120
 FLOAT = r"(-?\d+(?:\.\d+)?)"
@@ -126,6 +126,7 @@ def test_committed_without_outputs(path):
     assert all(c.outputs == [] and c.execution_count is None for c in code), "outputs must be stripped"
 
 
+@pytest.mark.notebook
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_runs_top_to_bottom(path, tmp_path, monkeypatch):
     monkeypatch.setenv("MOTIONLIB_NOTEBOOK_SMALL", "1")

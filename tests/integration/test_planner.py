@@ -24,7 +24,7 @@ from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
 from motionlib.planning.redundancy import RedundancyOptions
 from motionlib.planning.trajectory import load_plan
 
-OBSTACLES = Path(__file__).resolve().parent.parent / "obstacles"
+OBSTACLES = Path(__file__).resolve().parents[2] / "obstacles"
 
 
 @pytest.fixture(scope="module")

@@ -33,7 +33,7 @@ from motionlib.library.spec import LibrarySpec
 from motionlib.planning.planner import Planner, PlanOptions
 from motionlib.progress import LogProgress, RichProgress
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(sys.executable).parent
 MOTIONLIB = str(BIN / "motionlib")
 DASK = str(BIN / "dask")
@@ -155,6 +155,7 @@ def _count_parts(parts: Path) -> int:
     return len(list(parts.glob("[0-9]*.h5"))) if parts.exists() else 0
 
 
+@pytest.mark.slow
 def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
     out = tmp_path / "killed.h5"
     parts = parts_dir_for(out)
@@ -262,6 +263,7 @@ def dask_cluster(tmp_path: Path, n_workers: int = 2):
             log.close()
 
 
+@pytest.mark.cluster
 def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
     out = tmp_path / "dask.h5"
     with dask_cluster(tmp_path) as address:

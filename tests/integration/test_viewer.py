@@ -53,7 +53,7 @@ from motionlib.viz.viewer import (
     write_view,
 )
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_FLAGS = (
     "--headless",
@@ -380,6 +380,7 @@ READY = f"!!({PLOT} && {PLOT}._fullLayout && document.querySelector('.gl-contain
 ACTIVE = f"{PLOT}._fullLayout.sliders[0].active"
 
 
+@pytest.mark.browser
 def test_page_renders_and_animates_in_chromium(plan_file, tmp_path):
     out = tmp_path / "view.html"
     write_view(plan_file, out)

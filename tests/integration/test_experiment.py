@@ -44,7 +44,7 @@ from motionlib.model.scene import Scene
 from motionlib.runtime.controller import SharedController
 from motionlib.runtime.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "obstacles" / "log-loading.yaml"
 DT = 0.005
 
@@ -331,6 +331,7 @@ def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path):
     assert bad.exit_code == 1 and "logs" in bad.output
 
 
+@pytest.mark.slow
 def test_results_do_not_depend_on_the_number_of_workers(tiny):
     _, lib = tiny
     config = dict(operators=("O3",), modes=("M5", "M1"), series=1, cycles=1)

@@ -20,7 +20,7 @@ from motionlib_cli.main import COMMANDS, cli
 
 from motionlib.model.kinematics import Crane
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 DOCS = ROOT / "docs"
 
 
