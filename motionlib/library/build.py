@@ -211,7 +211,7 @@ def write_part(parts: Path, entry: Entry, outcome: EntryOutcome) -> Path:
             f.attrs["stage"] = outcome.stage
             f.attrs["reason"] = outcome.reason
             f.attrs["plan_time_s"] = outcome.plan_time_s
-            if outcome.ok:
+            if outcome.ok and outcome.trajectory is not None:
                 write_trajectory(f.create_group("trajectory"), outcome.trajectory)
                 row = f.create_group("row")
                 for key in _ROW_FIELDS:

@@ -607,14 +607,17 @@ class SelectionIndex:
         ``u = clip(w.b_j / |b_j|^2, 0, 1)``, ``dist^2 = |w - u b_j|^2``; the nearest segment gives the
         takeover time ``t_j + u (t_{j+1} - t_j)`` and the manual time ``dist / v_manual``.
         """
+        if self.approach_p is None or self.approach_t is None:
+            raise InputError("utility 'robust' needs approach_p and approach_t in the index")
+        approach_p, approach_t = self.approach_p, self.approach_t
         z_t = (sigma * self.unit_samples).T  # (3, S): p_true - p_est
         zz = (z_t * z_t).sum(axis=0)  # (S,)
         out = np.empty(cand.size)
         for lo in range(0, cand.size, _ROBUST_CHUNK):
             rows = cand[lo : lo + _ROBUST_CHUNK]
             m = rows.size
-            pts = self.approach_p[rows] - p_est  # (m, k, 3), centred on p_est
-            t = self.approach_t[rows]  # (m, k)
+            pts = approach_p[rows] - p_est  # (m, k, 3), centred on p_est
+            t = approach_t[rows]  # (m, k)
             a = pts[:, :-1]  # segment starts (m, J, 3), J = k - 1
             b = pts[:, 1:] - a  # segment vectors
             n_seg = a.shape[1]

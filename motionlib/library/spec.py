@@ -431,6 +431,7 @@ def _read_grid(sec: Section, scene: Any) -> Grid:
     region = scene.region(region_name)
     spacing = sec.number("spacing", gt=0.0)
     raw_heights = sec.raw("heights", None)
+    heights: tuple[float, ...]
     if raw_heights is None:
         heights = (float(region.center[2]),)
     else:

@@ -268,6 +268,8 @@ class LibraryWriter:
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> bool:
         stack, self._stack = self._stack, None
+        if stack is None:
+            raise InputError("LibraryWriter: __exit__ without __enter__")
         if exc_type is not None:
             self._file = None
             return bool(stack.__exit__(exc_type, exc, tb))  # closes and removes the temporary file
@@ -306,7 +308,7 @@ class LibraryWriter:
             group_name = entry_id(record.index)
             if trajectory is not None:
                 write_trajectory(self._file["trajectories"].create_group(group_name), trajectory, self.compression)
-            else:
+            elif copy_from is not None:
                 copy_from.file.copy(copy_from, self._file["trajectories"], name=group_name)
             record = _replace_row(record, len(self._rows))
             self._rows.append(row)
@@ -316,6 +318,8 @@ class LibraryWriter:
 
     def _finish(self) -> None:
         f = self._file
+        if f is None:
+            raise InputError("LibraryWriter: the file is not open")
         n_ok = len(self._rows)
         k = self._rows[0].approach_p.shape[0] if self._rows else APPROACH_POINTS
         index = f.create_group("index")
@@ -399,6 +403,16 @@ class Library:
     approach_p : ndarray, shape (n, k, 3)
     approach_t : ndarray, shape (n, k)
     """
+
+    entry: np.ndarray
+    start_q: np.ndarray
+    end_p: np.ndarray
+    duration_s: np.ndarray
+    energy_m3: np.ndarray
+    path_length_m: np.ndarray
+    clearance_m: np.ndarray
+    approach_p: np.ndarray
+    approach_t: np.ndarray
 
     def __init__(self, path: Path, attrs: dict[str, Any], arrays: dict[str, np.ndarray]):
         self.path = path

@@ -47,6 +47,8 @@ from .scene import Obstacle, Scene
 _MATH_OPS = SimpleNamespace(sin=math.sin, cos=math.cos, atan2=math.atan2, acos=math.acos, sqrt=math.sqrt)
 _NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.arccos, sqrt=np.sqrt)
 _BATCH = 2048  # configurations per vectorised chunk
+#: A closest pair: (distance m, crane part, obstacle, nearest points (2, 3) m).
+Closest = tuple[float, str, str, np.ndarray]
 _COLLIDE_REQUEST = fcl.CollisionRequest()
 _DISTANCE_REQUEST = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
 
@@ -127,16 +129,17 @@ def _stop_at_first_contact(o1: fcl.CollisionObject, o2: fcl.CollisionObject, dat
 def obstacle_geometry(obstacle: Obstacle) -> fcl.CollisionGeometry:
     """The fcl geometry of an obstacle in its local frame."""
     if obstacle.shape == "box":
-        return fcl.Box(*obstacle.size)
+        return fcl.Box(*(obstacle.size or (0.0, 0.0, 0.0)))
     if obstacle.shape == "sphere":
-        return fcl.Sphere(obstacle.radius)
+        return fcl.Sphere(obstacle.r)
     if obstacle.shape == "cylinder":
-        return fcl.Cylinder(obstacle.radius, obstacle.length)
+        return fcl.Cylinder(obstacle.r, 2.0 * obstacle.half_length)
     if obstacle.shape == "capsule":
-        return fcl.Capsule(obstacle.radius, obstacle.length)
+        return fcl.Capsule(obstacle.r, 2.0 * obstacle.half_length)
+    vertices, triangles = obstacle.mesh_arrays
     mesh = fcl.BVHModel()
-    mesh.beginModel(len(obstacle.triangles), len(obstacle.vertices))
-    mesh.addSubModel(np.asarray(obstacle.vertices, dtype=np.float64), np.asarray(obstacle.triangles))
+    mesh.beginModel(len(triangles), len(vertices))
+    mesh.addSubModel(vertices, triangles)
     mesh.endModel()
     return mesh
 
@@ -233,7 +236,7 @@ class CollisionChecker:
         return manager
 
     # ================================================================ geometry
-    def _arm_points(self, q1: Any, q2: Any, q3: Any, q4: Any, ops: Any) -> tuple:
+    def _arm_points(self, q1: Any, q2: Any, q3: Any, q4: Any, ops: Any) -> tuple[Any, Any, Any, Any]:
         """Boom pivot, jib pivot, jib end and tip (base frame, m) as (x, y, z) triples.
 
         Scalars with ``ops = _MATH_OPS``, arrays (n,) with ``_NUMPY_OPS``.
@@ -271,7 +274,7 @@ class CollisionChecker:
         self.boom.place(pivot, jib_pivot)
         self.jib.place(jib_pivot, jib_end)
         self.telescope.place(jib_end, tip)
-        self._place_hanging(*tip, loaded)
+        self._place_hanging(tip[0], tip[1], tip[2], loaded)
         return self._arm_parts[loaded]
 
     def _place_hanging(self, x: float, y: float, z: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
@@ -375,7 +378,8 @@ class CollisionChecker:
             if stop_at_first and hit.any():
                 return out
             for i in np.flatnonzero(maybe & ~hit):
-                if self._collides(*chunk[i].tolist(), loaded):
+                q1, q2, q3, q4 = chunk[i].tolist()
+                if self._collides(q1, q2, q3, q4, loaded):
                     out[start + i] = True
                     if stop_at_first:
                         return out
@@ -390,7 +394,8 @@ class CollisionChecker:
         """
         n = qs.shape[0]
         pivot, jib_pivot, jib_end, tip = (
-            np.stack(np.broadcast_arrays(*p), axis=1) for p in self._arm_points(*qs.T, _NUMPY_OPS)
+            np.stack(np.broadcast_arrays(*p), axis=1)
+            for p in self._arm_points(qs[:, 0], qs[:, 1], qs[:, 2], qs[:, 3], _NUMPY_OPS)
         )
         ux, uy = self._heading_batch(tip)
         segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
@@ -442,8 +447,9 @@ class CollisionChecker:
         boom_self = self._boom_self
         if boom_self is not self.boom:
             boom_self.place(self.boom.a, self.boom.b)
-        best = self._column_distance if self.column_blocked else None
-        best = _better(best, self._ground_distance(parts))
+        best = self._ground_distance(parts)
+        if self.column_blocked:
+            best = _better(best, self._column_distance)
         for part in self._hanging[loaded]:
             for other in (self._column_self, boom_self):
                 best = _better(best, _pair_distance(part, other.obj, other.name, False))
@@ -461,7 +467,7 @@ class CollisionChecker:
         """The closest pair behind :meth:`tip_clearance`."""
         return _result(self._tip_closest(p_tip, loaded))
 
-    def _tip_closest(self, p_tip: Any, loaded: bool) -> tuple:
+    def _tip_closest(self, p_tip: Any, loaded: bool) -> Closest:
         x, y, z = _point_values(p_tip)
         loaded = bool(loaded)
         parts = self._place_hanging(x, y, z, loaded)
@@ -470,28 +476,27 @@ class CollisionChecker:
             best = _better(best, _pair_distance(part, self._column_self.obj, "column", False))
         return _better(best, self._closest_to_obstacles(parts, best))
 
-    def _ground_distance(self, parts: tuple[_MovingCapsule, ...]) -> tuple:
-        best = None
+    def _ground_distance(self, parts: tuple[_MovingCapsule, ...]) -> Closest:
+        """The hanging part nearest the ground, with its distance (the grapple always hangs: parts is not empty)."""
+        pairs = []
         for part in parts:
             low = part.a if part.a[2] <= part.b[2] else part.b
-            d = low[2] - part.radius - self._ground_z
-            if best is None or d < best[0]:
-                points = np.array([[low[0], low[1], low[2] - part.radius], [low[0], low[1], self._ground_z]])
-                best = (d, part.name, "ground", points)
-        return best
+            points = np.array([[low[0], low[1], low[2] - part.radius], [low[0], low[1], self._ground_z]])
+            pairs.append((float(low[2] - part.radius - self._ground_z), part.name, "ground", points))
+        return min(pairs, key=lambda pair: pair[0])
 
-    def _closest_to_obstacles(self, parts: tuple[_MovingCapsule, ...], best: tuple | None) -> tuple | None:
+    def _closest_to_obstacles(self, parts: tuple[_MovingCapsule, ...], best: Closest | None) -> Closest | None:
         """Closest (part, obstacle) pair, visiting pairs by increasing bounding-box distance."""
         if not self._obstacles:
             return None
         found = None
-        bounds = []
+        gaps = []
         for part in parts:
             lo = np.minimum(part.a, part.b) - part.radius
             hi = np.maximum(part.a, part.b) + part.radius
             gap = np.maximum(0.0, np.maximum(self._obstacle_lo - hi, lo - self._obstacle_hi))
-            bounds.append(np.sqrt((gap * gap).sum(axis=1)))
-        bounds = np.array(bounds)
+            gaps.append(np.sqrt((gap * gap).sum(axis=1)))
+        bounds = np.array(gaps)
         order = np.argsort(bounds, axis=None)
         limit = best[0] if best is not None else math.inf
         for flat in order:
@@ -507,7 +512,7 @@ class CollisionChecker:
 
 
 # ==================================================================== helpers
-def _pair_distance(part: _MovingCapsule, other: fcl.CollisionObject, other_name: str, is_mesh: bool) -> tuple:
+def _pair_distance(part: _MovingCapsule, other: fcl.CollisionObject, other_name: str, is_mesh: bool) -> Closest:
     result = fcl.DistanceResult()
     d = fcl.distance(part.obj, other, _DISTANCE_REQUEST, result)
     p_part, p_other = result.nearest_points
@@ -517,15 +522,13 @@ def _pair_distance(part: _MovingCapsule, other: fcl.CollisionObject, other_name:
     return (float(d), part.name, other_name, np.array([p_part, p_other], dtype=np.float64))
 
 
-def _better(best: tuple | None, cand: tuple | None) -> tuple | None:
-    if cand is None:
-        return best
-    if best is None or cand[0] < best[0]:
+def _better(best: Closest, cand: Closest | None) -> Closest:
+    if cand is not None and cand[0] < best[0]:
         return cand
     return best
 
 
-def _result(best: tuple | None) -> DistanceResult:
+def _result(best: Closest | None) -> DistanceResult:
     if best is None:
         return DistanceResult(math.inf, "", "", np.full((2, 3), np.nan))
     return DistanceResult(float(best[0]), best[1], best[2], best[3])

@@ -73,6 +73,31 @@ class Obstacle:
     vertices: tuple[tuple[float, float, float], ...] | None = None
     triangles: tuple[tuple[int, int, int], ...] | None = None
 
+    def __post_init__(self) -> None:
+        needs = {"box": ("size",), "sphere": ("radius",), "cylinder": ("radius", "length"),
+                 "capsule": ("radius", "length"), "mesh": ("vertices", "triangles")}
+        if self.shape not in needs:
+            raise InputError(f"obstacle {self.name}: shape: expected one of {', '.join(SHAPES)}, got {self.shape!r}")
+        missing = [k for k in needs[self.shape] if getattr(self, k) is None]
+        if missing:
+            raise InputError(f"obstacle {self.name}: a {self.shape} needs {', '.join(missing)}")
+
+    @property
+    def r(self) -> float:
+        """Radius (m) of a sphere, cylinder or capsule (0 for other shapes)."""
+        return float(self.radius or 0.0)
+
+    @property
+    def half_length(self) -> float:
+        """Half the axis length (m) of a cylinder or capsule (0 for other shapes)."""
+        return 0.5 * float(self.length or 0.0)
+
+    @property
+    def mesh_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """A mesh's vertices (n, 3) m and triangles (t, 3) as arrays (empty for other shapes)."""
+        return (np.asarray(self.vertices or (), dtype=np.float64).reshape(-1, 3),
+                np.asarray(self.triangles or (), dtype=np.int64).reshape(-1, 3))
+
     def rotation(self) -> np.ndarray:
         """Rotation matrix (3, 3) of the local frame in the base frame."""
         return Rotation.from_euler("xyz", self.rpy).as_matrix()
@@ -87,20 +112,20 @@ class Obstacle:
         """
         rot = self.rotation()
         centre = np.asarray(self.xyz)
+        radius, h = self.r, self.half_length
         if self.shape == "mesh":
-            world = np.asarray(self.vertices) @ rot.T + centre
+            world = self.mesh_arrays[0] @ rot.T + centre
             return np.stack([world.min(axis=0), world.max(axis=0)])
         if self.shape == "box":
             half = np.abs(rot) @ (np.asarray(self.size) / 2.0)
         elif self.shape == "sphere":
-            half = np.full(3, self.radius)
+            half = np.full(3, radius)
         else:
             axis = np.abs(rot[:, 2])
-            h = self.length / 2.0
             if self.shape == "cylinder":
-                half = axis * h + self.radius * np.sqrt(np.clip(1.0 - axis**2, 0.0, 1.0))
+                half = axis * h + radius * np.sqrt(np.clip(1.0 - axis**2, 0.0, 1.0))
             else:
-                half = axis * h + self.radius
+                half = axis * h + radius
         return np.stack([centre - half, centre + half])
 
     def to_dict(self) -> dict[str, Any]:
@@ -112,7 +137,7 @@ class Obstacle:
             out["radius"] = self.radius
         if self.length is not None:
             out["length"] = self.length
-        if self.vertices is not None:
+        if self.vertices is not None and self.triangles is not None:
             out["vertices"] = [list(v) for v in self.vertices]
             out["triangles"] = [list(t) for t in self.triangles]
         return out
@@ -178,8 +203,8 @@ class Scene:
     ground_z: float = 0.0
     obstacles: tuple[Obstacle, ...] = ()
     regions: tuple[Region, ...] = ()
-    points: dict[str, tuple[float, float, float]] = field(default_factory=dict)
-    starts: dict[str, tuple[float, float, float, float]] = field(default_factory=dict)
+    points: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    starts: dict[str, tuple[float, ...]] = field(default_factory=dict)
     source: str | None = None
 
     # ------------------------------------------------------------ reading
@@ -308,14 +333,18 @@ def _vector_positive(sec: Section, key: str) -> tuple[float, float, float]:
     for i, v in enumerate(values):
         if not v > 0:
             sec.fail(f"{key}[{i}]", f"expected a number > 0, got {v}")
-    return tuple(values)
+    return _vec3(values)
+
+
+def _vec3(values: list[float]) -> tuple[float, float, float]:
+    return (values[0], values[1], values[2])
 
 
 def _read_obstacle(sec: Section) -> Obstacle:
     name = _name(sec, "name")
     shape = sec.string("shape", choices=SHAPES)
-    xyz = tuple(sec.vector("xyz", 3))
-    rpy = tuple(sec.vector("rpy", 3, [0.0, 0.0, 0.0]))
+    xyz = _vec3(sec.vector("xyz", 3))
+    rpy = _vec3(sec.vector("rpy", 3, [0.0, 0.0, 0.0]))
     kw: dict[str, Any] = {}
     if shape == "box":
         kw["size"] = _vector_positive(sec, "size")
@@ -352,7 +381,7 @@ def _read_mesh(sec: Section) -> tuple[tuple, tuple]:
 
 
 def _read_region(sec: Section) -> Region:
-    region = Region(name=_name(sec, "name"), center=tuple(sec.vector("center", 3)), size=_vector_positive(sec, "size"))
+    region = Region(name=_name(sec, "name"), center=_vec3(sec.vector("center", 3)), size=_vector_positive(sec, "size"))
     sec.done()
     return region
 

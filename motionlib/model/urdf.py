@@ -139,7 +139,7 @@ def _add_capsule(link: ET.Element, a: np.ndarray, b: np.ndarray, radius: float) 
     cyl_origin = {"xyz": _fmt(centre), "rpy": _fmt(rpy)}
     for tag in ("visual", "collision"):
         elem = ET.SubElement(link, tag)
-        ET.SubElement(elem, "origin", **cyl_origin)
+        ET.SubElement(elem, "origin", cyl_origin)
         ET.SubElement(ET.SubElement(elem, "geometry"), "cylinder", radius=_num(radius), length=_num(length))
     for end in (a, b):
         elem = ET.SubElement(link, "collision")

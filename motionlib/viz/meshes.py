@@ -70,13 +70,12 @@ def local_mesh(obstacle: Obstacle, segments: int = 16) -> tuple[np.ndarray, np.n
     """
     shape = obstacle.shape
     if shape == "mesh":
-        return np.asarray(obstacle.vertices, dtype=np.float64), np.asarray(obstacle.triangles, dtype=np.int64)
+        return obstacle.mesh_arrays
     if shape == "box":
         corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=np.float64)
         return hull_mesh(corners * np.asarray(obstacle.size) / 2.0)
-    r = float(obstacle.radius)
+    r, h = obstacle.r, obstacle.half_length
     if shape == "cylinder":
-        h = obstacle.length / 2.0
         ring = r * circle(segments)
         return hull_mesh(np.concatenate([np.column_stack([ring, np.full(segments, z)]) for z in (-h, h)]))
     rings = max(2, segments // 4)
@@ -84,7 +83,6 @@ def local_mesh(obstacle: Obstacle, segments: int = 16) -> tuple[np.ndarray, np.n
     upper = hemisphere(r, segments, rings, 1.0)
     if shape == "sphere":
         return hull_mesh(np.concatenate([lower, upper[segments:]]))  # the equator once
-    h = obstacle.length / 2.0
     return hull_mesh(np.concatenate([lower - [0.0, 0.0, h], upper + [0.0, 0.0, h]]))
 
 

@@ -635,7 +635,7 @@ def runlog_view(path: Path, options: ViewOptions) -> View:
     planned = None
     if embedded is not None:
         crane, scene = embedded
-    else:
+    elif library_path is not None:
         lib = Library.open(library_path)
         crane, scene = lib.crane, lib.scene
     if attrs.get("crane") not in (None, crane.name):

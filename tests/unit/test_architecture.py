@@ -1,0 +1,64 @@
+"""The package's shape: layers that never import upward, a clean type check, one call per job."""
+
+from __future__ import annotations
+
+import pydoc
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import motionlib
+
+ROOT = Path(__file__).resolve().parents[2]
+JOBS = ("plan", "build_library", "execute", "run_experiment", "write_view")
+
+
+def test_layers_never_import_upward():
+    """import-linter's layers contract (pyproject [tool.importlinter]) holds."""
+    lint = Path(sys.executable).with_name("lint-imports")
+    out = subprocess.run([str(lint), "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "1 kept, 0 broken" in out.stdout
+
+
+def test_a_layer_violation_is_caught(tmp_path):
+    """The contract can fail: a model module that imports the runtime breaks it."""
+    import grimp
+
+    graph = grimp.build_graph("motionlib", "motionlib_cli", cache_dir=None)
+    graph.add_import(importer="motionlib.model.kinematics", imported="motionlib.runtime.controller")
+    illegal = graph.find_illegal_dependencies_for_layers(
+        layers=("motionlib.runtime", "motionlib.model"), containers=set()
+    )
+    assert illegal, "the layers contract did not notice an upward import"
+
+
+@pytest.mark.slow
+def test_mypy_is_clean():
+    from mypy import api
+
+    stdout, stderr, status = api.run(["--config-file", str(ROOT / "pyproject.toml"), "--no-incremental"])
+    assert status == 0, stdout + stderr
+
+
+def test_one_call_per_job_is_exported():
+    text = pydoc.render_doc(motionlib, renderer=pydoc.plaintext)
+    for name in JOBS:
+        assert callable(getattr(motionlib, name)) and name in motionlib.__all__
+        assert name in text
+    for name in ("Crane", "Scene", "LibrarySpec", "Trajectory", "Library"):
+        assert isinstance(getattr(motionlib, name), type)
+
+
+def test_import_motionlib_stays_light():
+    """``import motionlib`` loads no solver, collision library or plotting package."""
+    code = (
+        "import sys, motionlib\n"
+        "heavy = sorted({m.split('.')[0] for m in sys.modules} & {'casadi', 'toppra', 'ompl', 'fcl', 'matplotlib', "
+        "'plotly', 'h5py', 'scipy'})\n"
+        "print(heavy)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert out.stdout.strip() == "[]"
