@@ -28,7 +28,9 @@ STATE_COLOURS = {
 JOINT_LABELS = ("slew", "boom", "jib", "telescope")
 
 
-def plot_work(out_dir: str | Path, rec: Recording, seg: Segmentation, usage: JointUsage, activity: np.ndarray) -> list[Path]:
+def plot_work(
+    out_dir: str | Path, rec: Recording, seg: Segmentation, usage: JointUsage, activity: np.ndarray
+) -> list[Path]:
     """Write the three figures of a recording to ``out_dir``; returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
