@@ -17,8 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..checks import Plausible
+from ..checks import Plausible, short
 from ..errors import ModelFileError
+from ..fileio import path_exists
 from ..schema import Section, load_yaml, read_plausibility
 
 JOINT_NAMES: tuple[str, ...] = ("slew", "boom", "jib", "telescope")
@@ -158,12 +159,14 @@ class CraneModel:
 def resolve_crane_path(name_or_path: str | Path) -> Path:
     """Path of a shipped crane (by name) or of a crane file (by path)."""
     candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml") or candidate.exists():
+    if candidate.suffix in (".yaml", ".yml") or path_exists(candidate):
         return candidate
     shipped = CRANES_DIR / f"{name_or_path}.yaml"
-    if not shipped.exists():
+    if not path_exists(shipped):
         names = ", ".join(sorted(p.stem for p in CRANES_DIR.glob("*.yaml")))
-        raise ModelFileError(f"unknown crane {str(name_or_path)!r}: expected one of {names} or a path to a .yaml file")
+        raise ModelFileError(
+            f"unknown crane {short(str(name_or_path))}: expected one of {names} or a path to a .yaml file"
+        )
     return shipped
 
 
