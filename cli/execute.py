@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from .options import json_option, mode_option, vector_option
+from .options import RUN_TIME_LIMIT_S, json_option, mode_option, vector_option
 from .output import emit_json
 
 
@@ -27,10 +27,10 @@ from .output import emit_json
               help="Selection utility (003 eqs. 5.6-5.7).")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
               help="Seed of the operator model and the valve noise.")
-@click.option("--noise", default=0.0, show_default=True, type=click.FloatRange(min=0.0),
+@click.option("--noise", default=0.0, show_default=True, type=click.FloatRange(min=0.0, max=10.0),
               help="Valve flow noise (standard deviation, fraction of the command).")
-@click.option("--time-limit", default=60.0, show_default=True, type=click.FloatRange(min=0.0, min_open=True),
-              help="Longest simulated time (s).")
+@click.option("--time-limit", default=60.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .options import MODES, json_option
+from .options import MODES, RUN_TIME_LIMIT_S, json_option
 
 
 @click.group()
@@ -32,7 +32,8 @@ def experiment() -> None:
 @click.option("--automation-ends", type=click.Choice(["fixed", "per-log"]), default="fixed", show_default=True,
               help="fixed: go out ends at the fix point between the pick-up areas, go back over the target area "
                    "(000 section 3.3); per-log: at the log's grab point and release point.")
-@click.option("--time-limit", default=900.0, show_default=True, type=click.FloatRange(min=0.0, min_open=True),
+@click.option("--time-limit", default=900.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one series (s).")
 @json_option
 def log_loading(

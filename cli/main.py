@@ -2,13 +2,24 @@
 
 Every command lives in its own module, listed in ``COMMANDS`` and imported only
 when it runs (so ``motionlib select`` does not pay for importing the planner's
-solvers). Library errors (:class:`motionlib.errors.MotionlibError`) become
-one-line :class:`click.ClickException` messages here, at the edge, and nowhere else.
+solvers). Errors become one line on stderr here, at the edge, and nowhere else:
+
+* :class:`motionlib.errors.MotionlibError` (bad input, a bad file, a failed plan):
+  ``Error: <message>``, exit status 1;
+* ``OSError`` outside the package's errors (a full disk, a permission, an unwritable
+  directory): ``Error: <file>: <reason>``, exit status 1;
+* anything else is a bug of motionlib (the last line of defence): one line naming the
+  command and asking for a report, exit status :data:`BUG_EXIT_STATUS`; the traceback is
+  shown only with ``motionlib --debug ...`` or the environment variable ``MOTIONLIB_DEBUG=1``.
+
+Usage errors (bad options) are click's: exit status 2.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import traceback
 from typing import Any
 
 import click
@@ -30,10 +41,37 @@ COMMANDS: dict[str, str] = {
     "execute": "execute:execute",
     "experiment": "experiment:experiment",
 }
+#: Exit status of an unexpected exception (a bug): EX_SOFTWARE of sysexits.h.
+BUG_EXIT_STATUS = 70
+#: Environment variable that shows the traceback of an unexpected exception (like ``--debug``).
+DEBUG_ENV = "MOTIONLIB_DEBUG"
+#: Longest error message printed (characters); longer ones are cut.
+MAX_MESSAGE = 1000
+
+
+def one_line(message: str, limit: int = MAX_MESSAGE) -> str:
+    """``message`` on one line, cut to ``limit`` characters."""
+    text = " ".join(message.split())
+    return text if len(text) <= limit else f"{text[: limit - 30]}... ({len(text)} characters)"
+
+
+def debug_requested(ctx: click.Context) -> bool:
+    """``--debug`` was given, or ``MOTIONLIB_DEBUG`` is set to something other than "" or "0"."""
+    return bool(ctx.params.get("debug")) or os.environ.get(DEBUG_ENV, "") not in ("", "0")
+
+
+def _command_path(ctx: click.Context, exc: BaseException) -> str:
+    """``motionlib <command> [<subcommand>]`` of the innermost command the exception passed through."""
+    path = ctx.command_path
+    for frame, _ in traceback.walk_tb(exc.__traceback__):
+        inner = frame.f_locals.get("ctx")
+        if isinstance(inner, click.Context):
+            path = inner.command_path
+    return path
 
 
 class MotionlibGroup(click.Group):
-    """A click group with lazily imported commands that turns motionlib errors into one-line CLI errors."""
+    """A click group with lazily imported commands that turns every exception into one line (see the module)."""
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
@@ -49,11 +87,29 @@ class MotionlibGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort, KeyboardInterrupt):
+            raise
         except MotionlibError as exc:
-            raise click.ClickException(str(exc)) from exc
+            raise click.ClickException(one_line(str(exc))) from exc
+        except MemoryError as exc:
+            raise click.ClickException(f"{_command_path(ctx, exc)}: out of memory") from exc
+        except OSError as exc:  # the environment (disk, permissions), not a motionlib file: not a bug
+            where = f"{exc.filename}: " if exc.filename else ""
+            raise click.ClickException(one_line(f"{where}{exc.strerror or exc}")) from exc
+        except Exception as exc:
+            if debug_requested(ctx):
+                raise
+            click.echo(
+                f"Error: {_command_path(ctx, exc)}: internal error ({one_line(f'{type(exc).__name__}: {exc}', 200)})."
+                " This is a bug in motionlib: please report it with the command line"
+                f" (motionlib --debug or {DEBUG_ENV}=1 shows the traceback).",
+                err=True,
+            )
+            ctx.exit(BUG_EXIT_STATUS)
 
 
 @click.group(cls=MotionlibGroup)
 @click.version_option(package_name="motionlib")
-def cli() -> None:
+@click.option("--debug", is_flag=True, help=f"Show the traceback of an internal error (also: {DEBUG_ENV}=1).")
+def cli(debug: bool) -> None:
     """Plan, store, select and execute motions of hydraulic forwarder cranes."""

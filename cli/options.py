@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 import click
 import numpy as np
 
-from motionlib.checks import parse_csv_floats
+from motionlib.checks import COORDINATE_M, parse_csv_floats
 from motionlib.errors import InputError
 from motionlib.runtime.control_types import Mode
 
@@ -19,6 +19,11 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 CRANE_HELP = "Shipped crane name (lab, forwarder) or path to a crane .yaml file."
 MODES = tuple(m.value for m in Mode)
+#: Largest magnitude of a vector option's values (positions m, joint values rad or m): the numeric
+#: limit of a scene coordinate (motionlib.checks.COORDINATE_M).
+VECTOR_LIMIT = COORDINATE_M.hard_hi
+#: Longest simulated time of a run (s): a 200 Hz log of an hour is 720,000 rows.
+RUN_TIME_LIMIT_S = 3600.0
 
 
 class FloatList(click.ParamType):
@@ -30,15 +35,16 @@ class FloatList(click.ParamType):
 
     name = "x,y,..."
 
-    def __init__(self, size: int, label: str):
+    def __init__(self, size: int, label: str, limit: float = VECTOR_LIMIT):
         self.size = size
         self.label = label
+        self.limit = limit
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> np.ndarray:
         if isinstance(value, np.ndarray):
             return value
         try:
-            return parse_csv_floats(str(value), self.size, self.label)
+            return parse_csv_floats(str(value), self.size, self.label, self.limit)
         except InputError as exc:
             self.fail(str(exc), param, ctx)
 

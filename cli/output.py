@@ -7,9 +7,9 @@ from typing import Any
 
 import click
 
-from motionlib.fileio import json_default
+from motionlib.fileio import json_default, json_safe
 
 
 def emit_json(obj: Any) -> None:
-    """Print one JSON object on stdout."""
-    click.echo(json.dumps(obj, default=json_default))
+    """Print one JSON object on stdout (valid JSON: NaN and infinities as null)."""
+    click.echo(json.dumps(json_safe(obj), default=json_default, allow_nan=False))

@@ -5,8 +5,9 @@ from __future__ import annotations
 import click
 
 from motionlib.checks import parse_csv_floats
+from motionlib.library.spec import PLANNER_RANGES
 
-from .options import crane_option, json_option, scene_option
+from .options import VECTOR_LIMIT, crane_option, json_option, scene_option
 from .output import emit_json
 
 
@@ -21,7 +22,8 @@ from .output import emit_json
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the path planner.")
 @click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
-@click.option("--time-limit", default=2.0, show_default=True, type=click.FloatRange(min=0.0, min_open=True),
+@click.option("--time-limit", default=2.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
               help="Path-planning time budget (s).")
 def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir, seed, planner, time_limit) -> None:
     """Plan a collision-free, near time-optimal trajectory (path, telescope profile, timing, verification)."""
@@ -32,8 +34,8 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
     crane = Crane.load(crane_name)
     scene = Scene.load(scene_file)
     options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit)
-    start_q = parse_csv_floats(start, 4, "--start") if "," in start else start
-    goal_p = parse_csv_floats(goal, 3, "--goal") if "," in goal else goal
+    start_q = parse_csv_floats(start, 4, "--start", VECTOR_LIMIT) if "," in start else start
+    goal_p = parse_csv_floats(goal, 3, "--goal", VECTOR_LIMIT) if "," in goal else goal
     result = plan_motion(crane, scene, start_q, goal_p, options).raise_for_status()
     traj = result.trajectory
     assert traj is not None  # raise_for_status

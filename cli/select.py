@@ -10,8 +10,10 @@ import math
 
 import click
 
-from .options import json_option, vector_option
+from .options import VECTOR_LIMIT, json_option, vector_option
 from .output import emit_json
+
+DISTANCE = click.FloatRange(min=0.0, min_open=True, max=VECTOR_LIMIT)
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -26,10 +28,10 @@ def _finite_or_none(x: float) -> float | None:
     "--utility", type=click.Choice(["time", "energy", "robust"]), default="time", show_default=True,
     help="time: fastest; energy: least oil; robust: least expected time incl. manual correction (003 eq. 5.7).",
 )
-@click.option("--l1", "l1", type=float, help="Acceptable end-point distance L1 (m) [default 0.3].")
-@click.option("--l2", "l2", type=float, help="Acceptable weighted start distance L2 [default 0.5].")
-@click.option("--sigma", type=float, help="robust: target-estimate error standard deviation (m) [default 0.3].")
-@click.option("--v-manual", type=float, help="robust: manual correction speed (m/s) [default 0.5].")
+@click.option("--l1", "l1", type=DISTANCE, help="Acceptable end-point distance L1 (m) [default 0.3].")
+@click.option("--l2", "l2", type=DISTANCE, help="Acceptable weighted start distance L2 [default 0.5].")
+@click.option("--sigma", type=DISTANCE, help="robust: target-estimate error standard deviation (m) [default 0.3].")
+@click.option("--v-manual", type=DISTANCE, help="robust: manual correction speed (m/s) [default 0.5].")
 @click.option("-n", "--max-candidates", default=5, show_default=True, type=click.IntRange(min=1))
 @click.option("--crane", help="Refuse the library unless it was built for this crane (name or file).")
 @json_option

@@ -15,7 +15,9 @@ from .output import emit_json
 @click.option(
     "-o", "--output", type=click.Path(dir_okay=False), help="HTML file to write [default: FILE with suffix .html]."
 )
-@click.option("--rate", "rate_hz", default=10.0, show_default=True, help="Animation frames per second of motion (Hz).")
+@click.option("--rate", "rate_hz", default=10.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True, max=1000.0),
+              help="Animation frames per second of motion (Hz).")
 @click.option(
     "--library",
     type=click.Path(dir_okay=False),

@@ -6,6 +6,12 @@ Each ``check_*`` helper returns a clean ``float64`` array (or float) or raises
 A parameter dataclass declares each number's bounds where it declares the field,
 ``tau_s: float = param(0.05, gt=0.0)``, and checks them all in ``__post_init__`` with
 :func:`check_params`: one place per parameter for its default and its range.
+
+A :class:`Plausible` range says which values of a physical quantity in a model file
+(crane, scene, library spec) are plausible for the machines motionlib is made for, and
+which values the solvers and the collision library can still compute with; the file
+readers (:mod:`motionlib.schema`) check every number against one. :func:`short` cuts
+long values short in error messages.
 """
 
 from __future__ import annotations
@@ -74,14 +80,82 @@ def check_scalar(
     return x
 
 
-def parse_csv_floats(text: str, size: int, name: str) -> np.ndarray:
-    """Parse ``"a,b,c"`` into a finite float64 vector of length ``size``."""
+def parse_csv_floats(text: str, size: int, name: str, limit: float | None = None) -> np.ndarray:
+    """Parse ``"a,b,c"`` into a finite float64 vector of length ``size`` (each ``|value| <= limit`` if given)."""
     parts: Sequence[str] = [p for p in text.replace(" ", "").split(",") if p != ""]
     try:
         values = [float(p) for p in parts]
     except ValueError as exc:
-        raise InputError(f"{name}: expected {size} comma-separated numbers, got {text!r}") from exc
-    return check_vector(values, size, name)
+        raise InputError(f"{name}: expected {size} comma-separated numbers, got {short(text)}") from exc
+    vec = check_vector(values, size, name)
+    if limit is not None and not np.all(np.abs(vec) <= limit):
+        raise InputError(f"{name}: expected numbers within +-{limit:g}, got {short(text)}")
+    return vec
+
+
+def short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to about ``limit`` characters.
+
+    Error messages quote what arrived; a 100,000-character name must not make a 100 kB line.
+    """
+    if isinstance(value, str | bytes) and len(value) > limit:
+        return f"{value[: limit - 24]!r}... ({len(value)} characters)"
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[: limit - 3]}..."
+
+
+# ------------------------------------------------------------------ plausibility ranges
+@dataclass(frozen=True)
+class Plausible:
+    """The documented range of one physical quantity in a model file.
+
+    A value in ``[lo, hi]`` is plausible for the cranes motionlib is made for (forestry
+    and lab cranes) and is accepted in every file. A file with the top-level key
+    ``plausibility: relaxed`` accepts values in ``[hard_lo, hard_hi]`` instead: an unusual
+    machine, deliberately. Beyond the hard range the solvers (OMPL, IPOPT, TOPPRA) or the
+    collision library (fcl) lose precision or fail, so no file may go there.
+
+    Attributes
+    ----------
+    lo, hi : float
+        The plausible range.
+    hard_lo, hard_hi : float
+        The numeric range (contains ``[lo, hi]``).
+    unit : str
+        Unit for messages (``m``, ``rad``, ``m/s`` ...).
+    """
+
+    lo: float
+    hi: float
+    hard_lo: float
+    hard_hi: float
+    unit: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.hard_lo <= self.lo <= self.hi <= self.hard_hi:
+            raise InputError(f"Plausible: expected hard_lo <= lo <= hi <= hard_hi, got {self}")
+
+    def bounds(self, relaxed: bool) -> tuple[float, float]:
+        """The accepted range: plausible, or the numeric range when ``relaxed``."""
+        return (self.hard_lo, self.hard_hi) if relaxed else (self.lo, self.hi)
+
+    def problem(self, x: float, relaxed: bool) -> str | None:
+        """None when ``x`` is accepted, else what was expected (for an error message)."""
+        lo, hi = self.bounds(relaxed)
+        if lo <= x <= hi:
+            return None
+        unit = f" {self.unit}" if self.unit else ""
+        if relaxed:
+            why = "the numeric limit, also with plausibility: relaxed"
+        elif self.hard_lo <= x <= self.hard_hi:
+            why = f"plausible range; a file with 'plausibility: relaxed' accepts [{self.hard_lo:g}, {self.hard_hi:g}]"
+        else:
+            why = f"plausible range; beyond the numeric limit [{self.hard_lo:g}, {self.hard_hi:g}] in any file"
+        return f"expected a value in [{lo:g}, {hi:g}]{unit} ({why}), got {x:g}"
+
+
+#: Positions in the crane's base frame (scene coordinates, target points), m.
+COORDINATE_M = Plausible(-1e3, 1e3, -1e5, 1e5, "m")
 
 
 @dataclass(frozen=True)

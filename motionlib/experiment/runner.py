@@ -15,6 +15,7 @@ operator, mode and series.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -22,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ExecutionError, InputError
-from ..library.build import build_library, default_workers, library_is_current, parts_dir_for
+from ..library.build import build_library, default_workers, exit_with_parent, library_is_current, parts_dir_for
 from ..library.spec import LibrarySpec
 from ..progress import Progress, make_progress
 from ..runtime.control_types import Mode
@@ -120,7 +121,8 @@ class ExperimentResult:
 _CONTEXT: dict[str, ExperimentContext] = {}
 
 
-def _init_worker(library: str, options: RunOptions) -> None:
+def _init_worker(library: str, options: RunOptions, parent_pid: int) -> None:
+    exit_with_parent(parent_pid)  # no worker outlives a killed experiment
     _CONTEXT["ctx"] = ExperimentContext(library, options)
 
 
@@ -167,7 +169,7 @@ def run_experiment(
         ExperimentContext(library, config.run)  # fail here, once, on a bad library or scene
         mp = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(workers, mp_context=mp, initializer=_init_worker,
-                                 initargs=(str(library), config.run)) as pool:
+                                 initargs=(str(library), config.run, os.getpid())) as pool:
             futures = [pool.submit(_run_one, key, config.cycles) for key in keys]
             for fut in as_completed(futures):
                 res = fut.result()

@@ -17,6 +17,11 @@ builds are never mixed. When every entry is done, the library is assembled in
 entry order into a temporary file, flushed, fsynced and renamed to ``<OUT>``; then
 the parts directory is removed.
 
+No process left behind. Local worker processes end when the build process dies, even by
+SIGKILL (:func:`exit_with_parent`, run by the pool's initializer): on Linux the kernel kills
+them (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), elsewhere a watchdog thread notices the new
+parent. multiprocessing's resource tracker then sees its last user gone and exits too.
+
 Determinism. Each entry has its own planner seed (from the spec seed and the entry
 key) and the planner restarts OMPL's generators from it for every query, so an
 entry's trajectory does not depend on the worker, the scheduling or an
@@ -31,6 +36,8 @@ loaded machine may fail where it succeeds on an idle one; anytime planners
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import ctypes.util
 import datetime
 import fcntl
 import json
@@ -38,7 +45,9 @@ import os
 import platform
 import re
 import shutil
+import signal
 import socket
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -50,8 +59,8 @@ import h5py
 import numpy as np
 
 from ..errors import InputError, LibraryFileError, PlanningError
-from ..fileio import atomic_output
-from ..planning.trajectory import Trajectory, write_trajectory
+from ..fileio import atomic_output, decode_attr, hdf5_errors, read_array
+from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
 from ..progress import Progress, make_progress
 from .spec import Entry, LibrarySpec, plan_options
 from .store import EntryRecord, IndexRow, LibraryWriter, entry_id, failure_patterns
@@ -139,8 +148,47 @@ def _planner(setup: BuildSetup) -> Any:
     return planner
 
 
-def init_worker(setup: BuildSetup) -> None:
-    """Process-pool initializer: build this process's planner once."""
+#: prctl option that asks the kernel for a signal when the parent dies (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
+#: Seconds between two looks of the watchdog thread at the parent (where prctl is missing).
+PARENT_POLL_S = 0.5
+
+
+def exit_with_parent(parent_pid: int) -> str:
+    """Make this (worker) process end as soon as process ``parent_pid``, its parent, dies.
+
+    On Linux the kernel sends SIGKILL when the parent dies (``prctl(PR_SET_PDEATHSIG)``),
+    which works even while the worker is deep in a solver's C code; elsewhere a daemon
+    thread looks at ``os.getppid()`` every :data:`PARENT_POLL_S` s. A parent that died
+    before this call is noticed at once (the worker has been re-parented).
+
+    Returns
+    -------
+    str
+        ``prctl`` or ``watchdog``: the mechanism in use.
+    """
+    mechanism = "watchdog"
+    if sys.platform.startswith("linux"):
+        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
+        if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+            mechanism = "prctl"
+    if os.getppid() != parent_pid:
+        os._exit(1)  # the parent died before the death signal was armed
+    if mechanism == "watchdog":
+
+        def watch() -> None:
+            while os.getppid() == parent_pid:
+                time.sleep(PARENT_POLL_S)
+            os._exit(1)
+
+        threading.Thread(target=watch, name="motionlib-parent-watchdog", daemon=True).start()
+    return mechanism
+
+
+def init_worker(setup: BuildSetup, parent_pid: int | None = None) -> None:
+    """Process-pool initializer: end with the parent ``parent_pid`` (:func:`exit_with_parent`); build the planner."""
+    if parent_pid is not None:
+        exit_with_parent(parent_pid)
     with _WORKER_LOCK:
         _planner(setup)
 
@@ -222,22 +270,31 @@ def write_part(parts: Path, entry: Entry, outcome: EntryOutcome) -> Path:
 
 @contextlib.contextmanager
 def _open_part(path: Path, entry: Entry) -> Iterator[tuple[EntryRecord, IndexRow | None, h5py.Group | None]]:
-    """Read a checkpoint: its entry record, index row and trajectory group (valid inside the context)."""
+    """Read a checkpoint: its entry record, index row and trajectory group (valid inside the context).
+
+    Raises
+    ------
+    LibraryFileError
+        The checkpoint is unreadable, damaged or of another entry (the caller discards it).
+    """
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise LibraryFileError(f"{path}: unreadable checkpoint ({exc})") from exc
     with f:
-        a = f.attrs
-        if a.get("schema") != PART_SCHEMA or a.get("key") != entry.key or int(a.get("seed", -1)) != entry.seed:
-            raise LibraryFileError(f"{path}: checkpoint is not of entry {entry.index} ({entry.key!r}) of this spec")
-        ok = a["status"] == "ok"
-        record = _record(entry, ok, str(a["stage"]), str(a["reason"]), float(a["plan_time_s"]))
-        if not ok:
-            yield record, None, None
-            return
-        row = IndexRow(**{k: f["row"][k][()] for k in _ROW_FIELDS})
-        yield record, row, f["trajectory"]
+        with hdf5_errors(f"{path}: damaged checkpoint"):
+            a = {k: decode_attr(a, f"{path}: attribute {k!r}") for k, a in f.attrs.items()}
+            if a.get("schema") != PART_SCHEMA or a.get("key") != entry.key or a.get("seed") != entry.seed:
+                raise LibraryFileError(f"{path}: checkpoint is not of entry {entry.index} ({entry.key!r}) of this spec")
+            ok = a["status"] == "ok"
+            record = _record(entry, ok, str(a["stage"]), str(a["reason"]), float(a["plan_time_s"]))
+            row = IndexRow(**{k: read_array(f, f"row/{k}", str(path), 10**6) for k in _ROW_FIELDS}) if ok else None
+            group = f.get("trajectory") if ok else None
+            if ok and not isinstance(group, h5py.Group):
+                raise LibraryFileError(f"{path}: checkpoint of an ok entry without a trajectory")
+            if group is not None:
+                read_trajectory(group)  # the whole trajectory is checked before it is copied into the library
+        yield record, row, group
 
 
 def _scan_parts(parts: Path, entries: list[Entry], log: Callable[[str], None]) -> dict[int, bool]:
@@ -316,7 +373,9 @@ def _run_local(setup: BuildSetup, todo: list[Entry], workers: int) -> Iterator[R
     from concurrent.futures.process import BrokenProcessPool
 
     ctx = multiprocessing.get_context("spawn")  # fresh interpreters: no inherited threads, locks or RNG state
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=init_worker, initargs=(setup,))
+    pool = ProcessPoolExecutor(
+        max_workers=workers, mp_context=ctx, initializer=init_worker, initargs=(setup, os.getpid())
+    )
     try:
         futures = {pool.submit(plan_entry, setup, e): e for e in todo}
         for fut in as_completed(futures):

@@ -77,7 +77,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..checks import check_points, check_scalar, check_vector
+from ..checks import COORDINATE_M, check_points, check_scalar, check_vector
 from ..errors import InputError, NoSelectionError
 
 DEFAULT_START_WEIGHTS: tuple[float, float, float, float] = (7.0, 7.0, 4.0, 1.0)
@@ -527,9 +527,10 @@ class SelectionIndex:
             Candidates satisfy ``d1 <= L1`` and ``d2 <= L2`` (inclusive); they are ranked by utility,
             highest first, and among equal utilities by library row, lowest first.
         """
-        p = check_vector(target_p, 3, "target_p").copy()  # the result keeps p and q_c for its diagnostics
-        l1 = check_scalar(L1, "L1", gt=0.0)
-        l2 = check_scalar(L2, "L2", gt=0.0)
+        big = COORDINATE_M.hard_hi  # beyond it distances lose all precision (the KD tree overflows at 1e308)
+        p = _within(check_vector(target_p, 3, "target_p"), big, "target_p").copy()  # kept for the diagnostics
+        l1 = check_scalar(L1, "L1", gt=0.0, le=big)
+        l2 = check_scalar(L2, "L2", gt=0.0, le=big)
         try:
             util = Utility(utility)
         except ValueError as exc:
@@ -540,15 +541,15 @@ class SelectionIndex:
         if util is Utility.ROBUST:
             if self.approach_p is None:
                 raise InputError("utility 'robust' needs approach_p and approach_t in the index")
-            sigma = check_scalar(sigma_m, "sigma_m", gt=0.0)
-            v_manual = check_scalar(v_manual_m_s, "v_manual_m_s", gt=0.0)
+            sigma = check_scalar(sigma_m, "sigma_m", gt=0.0, le=big)
+            v_manual = check_scalar(v_manual_m_s, "v_manual_m_s", gt=0.0, le=big)
             error_map = sigma * np.eye(3) if covariance is None else covariance_root(covariance)
 
         if current_q is None:
             qc, l2 = _NO_Q, np.nan  # L2 not applied
             cand = np.asarray(self._tree.query_ball_point(p, l1), dtype=np.intp)
         else:
-            qc = check_vector(current_q, 4, "current_q").copy()
+            qc = _within(check_vector(current_q, 4, "current_q"), big, "current_q").copy()
             cand = self._filter(p, qc, l1, l2)
         if cand.size == 0:
             return self._failure(p, qc, util, l1, l2, sigma, v_manual)
@@ -675,3 +676,10 @@ def _rank(score: np.ndarray, index: np.ndarray, k: int) -> np.ndarray:
         pos = np.flatnonzero(score >= kth_best)  # every member of the top k, plus ties
         return pos[np.lexsort((index[pos], -score[pos]))[:k]]
     return np.lexsort((index, -score))[:k]
+
+
+def _within(v: np.ndarray, limit: float, name: str) -> np.ndarray:
+    """``v`` when every ``|v_i| <= limit``, else an :class:`InputError` naming ``name``."""
+    if not np.all(np.abs(v) <= limit):
+        raise InputError(f"{name}: expected numbers within +-{limit:g}, got {v.tolist()}")
+    return v

@@ -16,9 +16,11 @@ entry has a key (``motion|start|target``) and a planner seed derived from the sp
 seed and that key (:func:`entry_seed`), so an entry's trajectory does not depend
 on which worker plans it or when.
 
-Reading is strict (:class:`motionlib.schema.Section`): unknown keys, wrong types,
-unknown scene names and duplicate entries are errors naming the file and the
-dotted key.
+Reading is strict (:class:`motionlib.schema.Section`): unknown and duplicate keys,
+wrong types, unknown scene names and duplicate entries are errors naming the file and
+the dotted key. Everything that sizes the work is bounded: the number of entries
+(:data:`MAX_ENTRIES`), the grid spacing and the planner options (:data:`PLANNER_RANGES`);
+``plausibility: relaxed`` at the top level widens these ranges to their numeric limits.
 """
 
 from __future__ import annotations
@@ -32,13 +34,40 @@ from typing import Any
 
 import numpy as np
 
+from ..checks import COORDINATE_M, Plausible, short
 from ..errors import ModelFileError
 from ..model.crane_model import JOINT_NAMES
 from ..model.kinematics import Crane
-from ..schema import Section, check_number_list, load_yaml
+from ..model.scene import MAX_ITEMS, MAX_NAME_LENGTH
+from ..schema import Section, check_count, check_number_list, load_yaml, read_plausibility
 
 SEED_MAX = 2**32 - 2
 """Largest planner seed (OMPL seeds are uint32; motionlib passes seed + 1)."""
+
+#: Number of entries of a spec: 10^5 plans take about a day on 32 cores; a relaxed spec may have 10^6.
+MAX_ENTRIES = Plausible(1, 100_000, 1, 1_000_000, "entries")
+#: Grid spacing (m).
+GRID_SPACING_M = Plausible(0.01, 100.0, 1e-4, 1e4, "m")
+#: Ranges of the planner options (``planner.<key>``, ``planner.redundancy.<key>``); an option not
+#: listed has :data:`OTHER_FLOAT` or :data:`OTHER_INT`. Time limits and iteration counts size the work,
+#: sample periods and spacings the memory.
+PLANNER_RANGES: dict[str, Plausible] = {
+    "time_limit_s": Plausible(1e-3, 600.0, 1e-3, 86_400.0, "s"),
+    "dt_s": Plausible(1e-3, 0.05, 1e-4, 1.0, "s"),
+    "verify_tip_spacing_m": Plausible(1e-3, 0.5, 1e-4, 10.0, "m"),
+    "check_step_m": Plausible(1e-3, 1.0, 1e-4, 10.0, "m"),
+    "clearance_m": Plausible(0.0, 2.0, 0.0, 100.0, "m"),
+    "arm_clearance_m": Plausible(0.0, 2.0, 0.0, 100.0, "m"),
+    "reach_margin_rad": Plausible(0.0, 0.5, 0.0, 3.0, "rad"),
+    "limit_margin": Plausible(0.0, 0.5, 0.0, 3.0, "rad"),
+    "degree": Plausible(1, 20, 1, 50),
+    "n_samples": Plausible(2, 1000, 2, 10_000),
+    "max_iter": Plausible(1, 10_000, 1, 1_000_000),
+}
+OTHER_FLOAT = Plausible(0.0, 1e3, 0.0, 1e6)
+OTHER_INT = Plausible(1, 10_000, 1, 1_000_000)
+#: Longest list of grid heights.
+MAX_HEIGHTS = 1_000
 
 
 @dataclass(frozen=True)
@@ -150,13 +179,14 @@ class LibrarySpec:
 
         base = Path(base_dir)
         top = Section(data, file)
+        read_plausibility(top)
         name = _nonempty(top, "name")
         description = top.string("description", "")
         scene_rel = _nonempty(top, "scene")
         crane_name = top.string("crane", None)
         seed = _integer(top, "seed", 0, lo=0, hi=SEED_MAX)
         planner = _read_planner(top.section("planner", {}))
-        motion_secs = top.sections("motions")
+        motion_secs = top.sections("motions", max_items=1_000)
         top.done()
 
         scene_path = base / scene_rel
@@ -175,7 +205,9 @@ class LibrarySpec:
         names = [m.name for m in motions]
         for i, m in enumerate(names):
             if m in names[:i]:
-                top.fail(f"motions[{i}].name", f"duplicate motion name {m!r}")
+                top.fail(f"motions[{i}].name", f"duplicate motion name {short(m)}")
+        n_entries = sum(_count_entries(m, scene) for m in motions)
+        top.check_plausible("motions", n_entries, MAX_ENTRIES, "the number of entries: ")
         spec = cls(name, description, crane, scene, seed, planner, motions, None if file.startswith("<") else file)
         spec.entries(file)  # reject duplicate entries now, naming the motion group
         return spec
@@ -200,7 +232,7 @@ class LibrarySpec:
                     key = f"{motion.name}|{start_name}|{label}"
                     if key in seen:
                         raise ModelFileError(
-                            f"{file or self.source or '<spec>'}: motions[{m_i}]: duplicate entry {key!r} "
+                            f"{file or self.source or '<spec>'}: motions[{m_i}]: duplicate entry {short(key)} "
                             f"(the same start and target twice)"
                         )
                     seen[key] = len(out)
@@ -287,13 +319,26 @@ def grid_points(lower: np.ndarray, upper: np.ndarray, spacing_m: float, heights_
         Ordered by height, then x, then y.
     """
     axes = []
-    for i in range(2):
-        width = float(upper[i] - lower[i])
-        n = int(math.floor(width / spacing_m + 1e-9)) + 1
+    for i, n in enumerate(grid_shape(lower, upper, spacing_m)):
         centre = 0.5 * float(upper[i] + lower[i])
         axes.append(centre + (np.arange(n) - (n - 1) / 2.0) * spacing_m)
     z, x, y = np.meshgrid(np.asarray(heights_m, dtype=float), axes[0], axes[1], indexing="ij")
     return np.stack([x.ravel(), y.ravel(), z.ravel()], axis=1)
+
+
+def grid_shape(lower: np.ndarray, upper: np.ndarray, spacing_m: float) -> tuple[int, int]:
+    """Points along x and y of the grid of :func:`grid_points` (computed without building it)."""
+    return tuple(int(math.floor(float(upper[i] - lower[i]) / spacing_m + 1e-9)) + 1 for i in range(2))  # type: ignore[return-value]
+
+
+def _count_entries(motion: Motion, scene: Any) -> int:
+    """Entries of a motion group: starts x (points + grid points), counted without expanding the grids."""
+    targets = len(motion.points)
+    for grid in motion.grids:
+        region = scene.region(grid.region)
+        n_x, n_y = grid_shape(region.lower, region.upper, grid.spacing_m)
+        targets += n_x * n_y * len(grid.heights_m)
+    return len(motion.starts) * targets
 
 
 # ---------------------------------------------------------------- helpers
@@ -311,15 +356,17 @@ def _nonempty(sec: Section, key: str) -> str:
     value = sec.string(key)
     if not value.strip():
         sec.fail(key, "expected a non-empty string")
+    if len(value) > MAX_NAME_LENGTH:
+        sec.fail(key, f"expected at most {MAX_NAME_LENGTH} characters, got {short(value)}")
     return value
 
 
 def _integer(sec: Section, key: str, default: Any, lo: int | None = None, hi: int | None = None) -> int:
     value = sec.raw(key, default)
     if isinstance(value, bool) or not isinstance(value, int):
-        sec.fail(key, f"expected an integer, got {type(value).__name__} {value!r}")
+        sec.fail(key, f"expected an integer, got {type(value).__name__} {short(value)}")
     if (lo is not None and value < lo) or (hi is not None and value > hi):
-        sec.fail(key, f"expected an integer in [{lo}, {hi}], got {value}")
+        sec.fail(key, f"expected an integer in [{lo}, {hi}], got {short(value)}")
     return int(value)
 
 
@@ -347,8 +394,10 @@ def _read_options(sec: Section, defaults: Any, skip: tuple[str, ...] = ()) -> di
             out[f.name] = sec.boolean(f.name)
         elif isinstance(default, int):
             out[f.name] = _integer(sec, f.name, None, lo=1)
+            sec.check_plausible(f.name, out[f.name], PLANNER_RANGES.get(f.name, OTHER_INT))
         elif isinstance(default, float):
-            out[f.name] = sec.number(f.name, **({"gt": 0.0} if f.name in _POSITIVE else {"ge": 0.0}))
+            bound = {"gt": 0.0} if f.name in _POSITIVE else {"ge": 0.0}
+            out[f.name] = sec.number(f.name, **bound, plausible=PLANNER_RANGES.get(f.name, OTHER_FLOAT))
         elif f.name == "planner":
             from ..planning.path import available_planners
 
@@ -379,13 +428,14 @@ def _require_named(sec: Section, key: str, name: str, known: Any, scene: Any, wh
     """Fail at ``key`` unless ``name`` is among ``known`` (the scene's starts, points or regions)."""
     if name not in known:
         listed = ", ".join(sorted(known)) or "none"
-        sec.fail(key, f"scene {scene.name!r} has no {what} {name!r} (known: {listed})")
+        sec.fail(key, f"scene {scene.name!r} has no {what} {short(name)} (known: {short(listed, 400)})")
 
 
 def _read_starts(sec: Section, scene: Any, crane: Crane) -> tuple:
     raw = sec.raw("starts")
     if not isinstance(raw, list) or not raw:
         sec.fail("starts", "expected a non-empty list of scene start names or {name, q} mappings")
+    check_count(sec, "starts", raw, MAX_ITEMS["starts"])
     out = []
     for i, item in enumerate(raw):
         key = f"starts[{i}]"
@@ -393,7 +443,7 @@ def _read_starts(sec: Section, scene: Any, crane: Crane) -> tuple:
             _require_named(sec, key, item, scene.starts, scene, "start")
             out.append((item, tuple(float(v) for v in scene.starts[item])))
             continue
-        sub = Section(item, sec.file, sec.key_path(key))
+        sub = Section(item, sec.file, sec.key_path(key), sec.relaxed)
         start_name = _nonempty(sub, "name")
         q = sub.vector("q", 4)
         sub.done()
@@ -404,7 +454,7 @@ def _read_starts(sec: Section, scene: Any, crane: Crane) -> tuple:
     names = [n for n, _ in out]
     for i, n in enumerate(names):
         if n in names[:i]:
-            sec.fail(f"starts[{i}]", f"duplicate start {n!r}")
+            sec.fail(f"starts[{i}]", f"duplicate start {short(n)}")
     return tuple(out)
 
 
@@ -412,6 +462,7 @@ def _read_points(tsec: Section, scene: Any) -> tuple:
     raw = tsec.raw("points", [])
     if not isinstance(raw, list):
         tsec.fail("points", "expected a list of scene point names or [x, y, z] points")
+    check_count(tsec, "points", raw, MAX_ITEMS["points"])
     out = []
     for i, item in enumerate(raw):
         key = f"points[{i}]"
@@ -420,7 +471,7 @@ def _read_points(tsec: Section, scene: Any) -> tuple:
             p = tuple(float(v) for v in scene.points[item])
             out.append((item, p))
         else:
-            p = tuple(check_number_list(tsec, key, item, 3))
+            p = tuple(check_number_list(tsec, key, item, 3, COORDINATE_M))
             out.append((_fmt(p), p))
     return tuple(out)
 
@@ -429,7 +480,7 @@ def _read_grid(sec: Section, scene: Any) -> Grid:
     region_name = _nonempty(sec, "region")
     _require_named(sec, "region", region_name, [r.name for r in scene.regions], scene, "region")
     region = scene.region(region_name)
-    spacing = sec.number("spacing", gt=0.0)
+    spacing = sec.number("spacing", gt=0.0, plausible=GRID_SPACING_M)
     raw_heights = sec.raw("heights", None)
     heights: tuple[float, ...]
     if raw_heights is None:
@@ -437,6 +488,7 @@ def _read_grid(sec: Section, scene: Any) -> Grid:
     else:
         if not isinstance(raw_heights, list) or not raw_heights:
             sec.fail("heights", "expected a non-empty list of tip heights (m)")
+        check_count(sec, "heights", raw_heights, MAX_HEIGHTS)
         heights = tuple(check_number_list(sec, "heights", raw_heights, len(raw_heights)))
         lo, hi = float(region.lower[2]), float(region.upper[2])
         for i, z in enumerate(heights):

@@ -23,7 +23,13 @@ A library file is one HDF5 file holding the set Q of pre-planned trajectories of
     index, zero-padded to 6 digits.
 
 :meth:`Library.open` reads the root attributes and the index arrays only;
-entries and trajectories are read on demand.
+entries and trajectories are read on demand. Every read is verified before the data
+are used: attribute types, dataset dtypes and shapes, finite values, increasing entry
+ids, an entry table consistent with the index; a trajectory must pass
+:func:`~motionlib.planning.trajectory.check_trajectory` against the embedded crane's
+limits and agree with its index row (start, end point, duration). Index datasets and
+trajectory arrays carry HDF5's Fletcher-32 checksum. Any failure is a
+:class:`~motionlib.errors.LibraryFileError` naming the file and the object.
 """
 
 from __future__ import annotations
@@ -42,11 +48,11 @@ import numpy as np
 
 from ..checks import check_vector
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output, encode_attr, hdf5_errors, read_json_attr
+from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors, path_exists, read_array, read_json_attr
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, crane_from_record
 from ..model.kinematics import Crane
 from ..model.scene import Scene
-from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
+from ..planning.trajectory import Trajectory, check_trajectory, read_trajectory, write_trajectory
 from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex, SelectionResult, approach_samples
 
 LIBRARY_SCHEMA = "motionlib.library"
@@ -80,7 +86,12 @@ ENTRY_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "plan_time_s": ("f8", ()),
     "row": ("i8", ()),
 }
-_REQUIRED_ATTRS = ("name", "crane", "crane_digest", "scene", "scene_digest", "n_entries", "n_ok", "n_failed")
+_STRING_ATTRS = ("name", "crane", "crane_digest", "scene", "scene_digest")
+_COUNT_ATTRS = ("n_entries", "n_ok", "n_failed")
+#: Most entries a library file may claim (the numeric limit of a spec, motionlib.library.spec.MAX_ENTRIES).
+MAX_LIBRARY_ENTRIES = 1_000_000
+#: Tolerances of a trajectory's agreement with its index row: start (rad or m), end point (m), duration (relative).
+ROW_TOLERANCE = {"start_q": 1e-6, "end_p": 1e-6, "duration": 1e-9}
 
 
 def entry_id(index: int) -> str:
@@ -450,11 +461,11 @@ class Library:
             opened read-only and never modified.
         """
         path = Path(path)
-        if not path.is_file():
+        if not path_exists(path, file=True):
             raise LibraryFileError(f"{path}: no such library file")
         with hdf5_errors(f"{path}: not a readable library (truncated or corrupt HDF5)"), h5py.File(path, "r") as f:
             attrs = _check_header(path, f)
-            arrays = _read_index(path, f, int(attrs["n_ok"]))
+            arrays = _read_index(path, f, attrs["n_ok"], attrs["n_entries"])
         lib = cls(path, attrs, arrays)
         if crane is not None:
             lib.check_crane(crane)
@@ -517,15 +528,35 @@ class Library:
             raise InputError(f"trajectory: expected a row in [0, {len(self) - 1}], got {i!r}")
         name = f"trajectories/{entry_id(self.entry[i])}"
         with hdf5_errors(f"{self.path}: cannot read /{name}"), h5py.File(self.path, "r") as f:
-            if name not in f:
+            group = f.get(name)
+            if not isinstance(group, h5py.Group):
                 raise LibraryFileError(f"{self.path}: missing group /{name}")
-            return read_trajectory(f[name])
+            traj = read_trajectory(group)
+        self._check_row(traj, int(i), f"{self.path}:/{name}")
+        return traj
+
+    def _check_row(self, traj: Trajectory, i: int, where: str) -> None:
+        """A trajectory read for index row ``i`` keeps the crane's limits and agrees with its row."""
+        crane = self.crane
+        check_trajectory(traj, where, crane)
+        tol = ROW_TOLERANCE
+        problems = []
+        if not np.allclose(traj.q[0], self.start_q[i], rtol=0.0, atol=tol["start_q"]):
+            problems.append(f"starts at {np.round(traj.q[0], 6).tolist()}, index row {i} at "
+                            f"{np.round(self.start_q[i], 6).tolist()}")
+        if not np.allclose(crane.fk(traj.q[-1]), self.end_p[i], rtol=0.0, atol=tol["end_p"]):
+            problems.append(f"ends at {np.round(crane.fk(traj.q[-1]), 6).tolist()} m, index row {i} at "
+                            f"{np.round(self.end_p[i], 6).tolist()} m")
+        if not np.isclose(traj.duration_s, self.duration_s[i], rtol=tol["duration"], atol=0.0):
+            problems.append(f"lasts {traj.duration_s!r} s, index row {i} {float(self.duration_s[i])!r} s")
+        if problems:
+            raise LibraryFileError(f"{where}: does not match its index row: {'; '.join(problems)}")
 
     @functools.cached_property
     def entries(self) -> tuple[EntryRecord, ...]:
         """Every entry with its status, stage and reason, in entry order."""
         with hdf5_errors(f"{self.path}: cannot read /entries"), h5py.File(self.path, "r") as f:
-            cols = _read_entries(self.path, f, self.n_entries)
+            cols = _read_entries(self.path, f, self.n_entries, self.entry)
         return tuple(
             EntryRecord(
                 index=i,
@@ -596,7 +627,11 @@ class Library:
     @functools.cached_property
     def crane(self) -> Crane:
         """The :class:`~motionlib.model.kinematics.Crane` embedded in the library, checked against its digest."""
-        return crane_from_record(self.metadata(CRANE_ATTR), str(self.path), self.crane_digest)
+        crane = crane_from_record(self.metadata(CRANE_ATTR), str(self.path), self.crane_digest)
+        if crane.name != self.crane_name:
+            raise LibraryFileError(f"{self.path}: the embedded crane is {crane.name!r}, the root attribute says "
+                                   f"{self.crane_name!r}")
+        return crane
 
     @functools.cached_property
     def scene(self) -> Scene:
@@ -607,66 +642,90 @@ class Library:
 # ------------------------------------------------------------------ reading helpers
 def _check_header(path: Path, f: h5py.File) -> dict[str, Any]:
     attrs = f.attrs
-    schema = attrs.get("schema")
-    if isinstance(schema, bytes):
-        schema = schema.decode()
+    schema = decode_attr(attrs.get("schema"), f"{path}: attribute 'schema'")
     if schema != LIBRARY_SCHEMA:
-        what = f"schema {schema!r}" if schema is not None else "no schema attribute"
+        what = f"schema {schema!r:.60}" if schema is not None else "no schema attribute"
         raise LibraryFileError(f"{path}: not a motionlib library ({what}, expected {LIBRARY_SCHEMA!r})")
     version = attrs.get("schema_version")
-    if not isinstance(version, int | np.integer):
-        raise LibraryFileError(f"{path}: corrupt library: schema_version is {version!r}")
+    if isinstance(version, bool | np.bool_) or not isinstance(version, int | np.integer):
+        raise LibraryFileError(f"{path}: corrupt library: schema_version is {version!r:.60}")
     if int(version) > LIBRARY_VERSION:
         raise LibraryFileError(
             f"{path}: library schema version {int(version)} is newer than this motionlib reads ({LIBRARY_VERSION}); "
             f"upgrade motionlib"
         )
     out: dict[str, Any] = {"schema_version": int(version)}
-    for key in _REQUIRED_ATTRS:
+    for key in (*_STRING_ATTRS, *_COUNT_ATTRS):
         if key not in attrs:
             raise LibraryFileError(f"{path}: corrupt library: root attribute {key!r} is missing")
-        value = attrs[key]
-        out[key] = value.decode() if isinstance(value, bytes) else value
-    if int(out["n_ok"]) + int(out["n_failed"]) != int(out["n_entries"]) or int(out["n_ok"]) < 0:
+        value = decode_attr(attrs[key], f"{path}: root attribute {key!r}")
+        string = key in _STRING_ATTRS
+        ok = isinstance(value, str) if string else isinstance(value, int) and not isinstance(value, bool)
+        if not ok or (not string and not 0 <= value <= MAX_LIBRARY_ENTRIES):
+            expected = "a string" if string else f"an integer in [0, {MAX_LIBRARY_ENTRIES}]"
+            raise LibraryFileError(f"{path}: corrupt library: root attribute {key!r}: expected {expected}, "
+                                   f"got {value!r:.60}")
+        out[key] = value
+    if out["n_ok"] + out["n_failed"] != out["n_entries"]:
         raise LibraryFileError(f"{path}: corrupt library: n_ok + n_failed != n_entries")
     return out
 
 
-def _read_index(path: Path, f: h5py.File, n: int) -> dict[str, np.ndarray]:
-    if "index" not in f:
+def _read_index(path: Path, f: h5py.File, n: int, n_entries: int) -> dict[str, np.ndarray]:
+    group = f.get("index")
+    if not isinstance(group, h5py.Group):
         raise LibraryFileError(f"{path}: corrupt library: group /index is missing")
-    group = f["index"]
     k = None
     arrays = {}
+    where = f"{path}: corrupt library"
     for key, tail in INDEX_FIELDS.items():
-        if key not in group:
-            raise LibraryFileError(f"{path}: corrupt library: dataset /index/{key} is missing")
-        ds = group[key]
-        if key == "approach_p" and ds.ndim == 3:
+        name = f"/index/{key}"
+        ds = group.get(key)
+        if key == "approach_p" and isinstance(ds, h5py.Dataset) and ds.ndim == 3:
             k = ds.shape[1]
         expected = tuple(n if d == "n" else (k if d == "k" else int(d)) for d in ("n", *tail))
-        if ds.shape != expected:
-            raise LibraryFileError(f"{path}: corrupt library: /index/{key} has shape {ds.shape}, expected {expected}")
-        dtype = np.int64 if key == "entry" else np.float64
-        data = np.empty(ds.shape, dtype=dtype)
-        if data.size:
-            ds.read_direct(data)
+        if isinstance(ds, h5py.Dataset) and ds.shape != expected:
+            raise LibraryFileError(f"{where}: {name} has shape {ds.shape}, expected {expected}")
+        data = read_array(f, name, where, max(1, int(np.prod(expected))), np.int64 if key == "entry" else np.float64)
+        if key == "entry" and ds.dtype.kind not in "iu":
+            raise LibraryFileError(f"{where}: {name} has dtype {ds.dtype}, expected integers")
+        finite = np.isfinite(data) | np.isnan(data) if key == "energy_m3" else np.isfinite(data)  # NaN: no hydraulics
+        if not np.all(finite):
+            raise LibraryFileError(f"{where}: {name} holds a non-finite value")
         arrays[key] = data
-    if n and not (np.all(np.diff(arrays["entry"]) > 0) and arrays["entry"][0] >= 0):
-        raise LibraryFileError(f"{path}: corrupt library: /index/entry is not increasing")
+    entry = arrays["entry"]
+    if n and not (np.all(np.diff(entry) > 0) and entry[0] >= 0 and entry[-1] < n_entries):
+        raise LibraryFileError(f"{where}: /index/entry is not increasing within [0, {n_entries})")
+    if n and not np.all(arrays["duration_s"] > 0.0):
+        raise LibraryFileError(f"{where}: /index/duration_s holds a duration <= 0")
     return arrays
 
 
-def _read_entries(path: Path, f: h5py.File, n: int) -> dict[str, Sequence[Any]]:
-    if "entries" not in f:
+def _read_entries(path: Path, f: h5py.File, n: int, index_entry: np.ndarray) -> dict[str, Sequence[Any]]:
+    group = f.get("entries")
+    if not isinstance(group, h5py.Group):
         raise LibraryFileError(f"{path}: corrupt library: group /entries is missing")
-    group = f["entries"]
+    where = f"{path}: corrupt library: /entries"
     cols: dict[str, Any] = {}
     for key, (kind, shape) in ENTRY_FIELDS.items():
-        if key not in group or group[key].shape != (n, *shape):
-            raise LibraryFileError(f"{path}: corrupt library: /entries/{key} is missing or of the wrong shape")
+        ds = group.get(key)
+        if not isinstance(ds, h5py.Dataset) or ds.shape != (n, *shape):
+            raise LibraryFileError(f"{where}/{key} is missing or of the wrong shape")
         if kind == "str":
-            cols[key] = group[key].asstr()[()].tolist() if n else []
+            if h5py.check_string_dtype(ds.dtype) is None:
+                raise LibraryFileError(f"{where}/{key} has dtype {ds.dtype}, expected strings")
+            cols[key] = ds.asstr()[()].tolist() if n else []
         else:
-            cols[key] = group[key][()]
+            data = read_array(group, key, where, max(1, n * int(np.prod(shape))), np.dtype(kind))
+            if not np.all(np.isfinite(data)):
+                raise LibraryFileError(f"{where}/{key} holds a non-finite value")
+            cols[key] = data
+    ok = np.array([s == "ok" for s in cols["status"]], dtype=bool)
+    if not all(s in ("ok", "failed") for s in cols["status"]):
+        raise LibraryFileError(f"{where}/status: expected 'ok' or 'failed'")
+    expected_rows = np.where(ok, np.cumsum(ok) - 1, -1)
+    if not np.array_equal(np.asarray(cols["row"]), expected_rows):
+        raise LibraryFileError(f"{where}/row does not number the ok entries 0, 1, ... (failed ones -1)")
+    if not np.array_equal(np.flatnonzero(ok), index_entry):
+        raise LibraryFileError(f"{where}/status: the ok entries are not those of /index/entry")
     return cols

@@ -2,25 +2,53 @@
 
 A crane model is a YAML file (``motionlib/model/cranes/<name>.yaml`` for the shipped
 ones, see docs/crane-format.md). :func:`load_crane_model` reads it strictly:
-unknown keys are rejected and every number is range-checked, with errors that
-name the file and the key.
+unknown and duplicate keys are rejected and every number is checked against its sign
+and its plausibility range (:data:`PLAUSIBLE`; ``plausibility: relaxed`` at the top
+level widens them to the numeric limits), with errors that name the file and the key.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ..checks import Plausible, short
 from ..errors import ModelFileError
-from ..schema import Section, load_yaml
+from ..fileio import path_exists
+from ..schema import Section, load_yaml, read_plausibility
 
 JOINT_NAMES: tuple[str, ...] = ("slew", "boom", "jib", "telescope")
 JOINT_TYPES: tuple[str, ...] = ("revolute", "revolute", "revolute", "prismatic")
 CRANES_DIR = Path(__file__).parent / "cranes"
+
+_TURN = 2.0 * math.pi
+#: Plausibility ranges of a crane file's numbers (docs/crane-format.md, "Plausibility"): the plausible
+#: range covers lab cranes and full-size forestry cranes with margin; the numeric range (files with
+#: ``plausibility: relaxed``) is what the kinematics, the solvers and the collision library handle.
+#: The velocity and acceleration ranges keep a motion of one joint range under about 10^4 s, so that
+#: a trajectory's 200 Hz samples fit in memory. Signs (velocity_min < 0 < velocity_max) are checked first.
+PLAUSIBLE: dict[str, Plausible] = {
+    "length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),  # column_height, boom_length, jib_length
+    "offset": Plausible(-5.0, 5.0, -1e3, 1e3, "m"),  # boom_pivot_offset, telescope_offset
+    "slew": Plausible(-_TURN, _TURN, -2 * _TURN, 2 * _TURN, "rad"),  # slew lower, upper
+    "arm": Plausible(-math.pi, math.pi, -2 * _TURN, 2 * _TURN, "rad"),  # boom and jib lower, upper
+    "stroke": Plausible(0.0, 10.0, 0.0, 1e3, "m"),  # telescope lower, upper
+    "velocity_min": Plausible(-3.0, -0.01, -100.0, -1e-3, "rad/s or m/s"),
+    "velocity_max": Plausible(0.01, 3.0, 1e-3, 100.0, "rad/s or m/s"),
+    "acceleration_max": Plausible(0.01, 10.0, 1e-3, 1e3, "rad/s^2 or m/s^2"),
+    "pump_flow": Plausible(1e-5, 2e-2, 1e-7, 10.0, "m^3/s"),
+    "displacement": Plausible(1e-5, 0.1, 1e-7, 10.0, "m^3/rad or m^3/m"),
+    "pump_speed": Plausible(0.01, 1e3, 1e-3, 1e9, "rad/s or m/s"),  # pump_flow / displacement of each joint
+    "radius": Plausible(0.005, 2.0, 1e-4, 100.0, "m"),  # link capsules, grapple
+    "grapple_length": Plausible(0.05, 5.0, 1e-4, 100.0, "m"),
+    "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
+    "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
+}
 
 
 @dataclass(frozen=True)
@@ -67,25 +95,59 @@ class CraneModel:
     grapple_radius: float
     log_length: float
     log_diameter: float
+    plausibility: str = "strict"
 
     def to_dict(self) -> dict:
-        """Plain-data form (JSON/YAML serialisable), as embedded in plan and library files."""
-        return asdict(self)
+        """Plain-data form (JSON/YAML serialisable), as embedded in plan and library files.
+
+        ``plausibility`` is left out when it is ``strict`` (so the digest of a strict model
+        does not depend on the key's existence).
+        """
+        out = asdict(self)
+        if self.plausibility == "strict":
+            del out["plausibility"]
+        return out
 
     @classmethod
     def from_dict(cls, record: dict) -> CraneModel:
-        """Inverse of :meth:`to_dict` (a record embedded in a file; no range checks).
+        """Inverse of :meth:`to_dict` (a record embedded in a file), validated as a crane file.
 
         Raises
         ------
-        KeyError, TypeError
-            The record lacks a field or has an unknown one.
+        KeyError, TypeError, ValueError
+            The record lacks a field or has an unknown one, or a value is of the wrong
+            type or outside its range (:class:`~motionlib.errors.ModelFileError`, naming
+            the key as in a crane file).
         """
         data = dict(record)
         data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
         if data.get("displacement") is not None:
             data["displacement"] = tuple(data["displacement"])
-        return cls(**data)
+        model = cls(**data)
+        if crane_model_from_dict(model.to_file_dict(), "<embedded crane model>") != model:
+            raise ModelFileError("<embedded crane model>: joint names or types differ from a crane file's")
+        return model
+
+    def to_file_dict(self) -> dict:
+        """The model in the layout of a crane file (docs/crane-format.md)."""
+        out: dict = {"name": self.name, "description": self.description}
+        if self.plausibility != "strict":
+            out["plausibility"] = self.plausibility
+        out["kinematics"] = {k: getattr(self, k) for k in
+                             ("column_height", "boom_pivot_offset", "boom_length", "jib_length", "telescope_offset")}
+        out["joints"] = {
+            name: {k: getattr(j, k) for k in ("lower", "upper", "velocity_min", "velocity_max", "acceleration_max")}
+            for name, j in zip(JOINT_NAMES, self.joints, strict=True)
+        }
+        if self.pump_flow is not None or self.displacement is not None:
+            displacement = self.displacement
+            out["hydraulics"] = {"pump_flow": self.pump_flow,
+                                 "displacement": dict(zip(JOINT_NAMES, displacement, strict=True))
+                                 if isinstance(displacement, tuple) else displacement}
+        out["geometry"] = {k: getattr(self, k) for k in (
+            "column_radius", "boom_radius", "jib_radius", "telescope_radius", "grapple_length", "grapple_radius",
+            "log_length", "log_diameter")}
+        return out
 
     @property
     def digest(self) -> str:
@@ -97,12 +159,14 @@ class CraneModel:
 def resolve_crane_path(name_or_path: str | Path) -> Path:
     """Path of a shipped crane (by name) or of a crane file (by path)."""
     candidate = Path(name_or_path)
-    if candidate.suffix in (".yaml", ".yml") or candidate.exists():
+    if candidate.suffix in (".yaml", ".yml") or path_exists(candidate):
         return candidate
     shipped = CRANES_DIR / f"{name_or_path}.yaml"
-    if not shipped.exists():
+    if not path_exists(shipped):
         names = ", ".join(sorted(p.stem for p in CRANES_DIR.glob("*.yaml")))
-        raise ModelFileError(f"unknown crane {str(name_or_path)!r}: expected one of {names} or a path to a .yaml file")
+        raise ModelFileError(
+            f"unknown crane {short(str(name_or_path))}: expected one of {names} or a path to a .yaml file"
+        )
     return shipped
 
 
@@ -126,30 +190,35 @@ def load_crane_model(name_or_path: str | Path) -> CraneModel:
 def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     """Validate the mapping of a crane file (see :func:`load_crane_model`)."""
     top = Section(data, file)
+    relaxed = read_plausibility(top)
     name = top.string("name")
     description = top.string("description", "")
+    r = PLAUSIBLE
 
     kin = top.section("kinematics")
-    column_height = kin.number("column_height", gt=0)
-    boom_pivot_offset = kin.number("boom_pivot_offset", 0.0, ge=0)
-    boom_length = kin.number("boom_length", gt=0)
-    jib_length = kin.number("jib_length", gt=0)
-    telescope_offset = kin.number("telescope_offset", 0.0)
+    column_height = kin.number("column_height", gt=0, plausible=r["length"])
+    boom_pivot_offset = kin.number("boom_pivot_offset", 0.0, ge=0, plausible=r["offset"])
+    boom_length = kin.number("boom_length", gt=0, plausible=r["length"])
+    jib_length = kin.number("jib_length", gt=0, plausible=r["length"])
+    telescope_offset = kin.number("telescope_offset", 0.0, plausible=r["offset"])
     kin.done()
 
     jsec = top.section("joints")
     joints = []
     for jname, jtype in zip(JOINT_NAMES, JOINT_TYPES, strict=True):
         j = jsec.section(jname)
+        position = r["stroke"] if jtype == "prismatic" else r["slew"] if jname == "slew" else r["arm"]
         lower = j.number("lower")
         upper = j.number("upper")
         if not upper > lower:
             j.fail("upper", f"expected a number > lower ({lower}), got {upper}")
         if jtype == "prismatic" and lower < 0:
             j.fail("lower", f"expected a telescope extension >= 0, got {lower}")
-        vmin = j.number("velocity_min", lt=0)
-        vmax = j.number("velocity_max", gt=0)
-        amax = j.number("acceleration_max", gt=0)
+        j.check_plausible("lower", lower, position)
+        j.check_plausible("upper", upper, position)
+        vmin = j.number("velocity_min", lt=0, plausible=r["velocity_min"])
+        vmax = j.number("velocity_max", gt=0, plausible=r["velocity_max"])
+        amax = j.number("acceleration_max", gt=0, plausible=r["acceleration_max"])
         j.done()
         joints.append(JointSpec(jname, jtype, lower, upper, vmin, vmax, amax))
     jsec.done()
@@ -157,18 +226,21 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     pump_flow = displacement = None
     if top.has("hydraulics"):
         hyd = top.section("hydraulics")
-        pump_flow = hyd.number("pump_flow", gt=0)
+        pump_flow = hyd.number("pump_flow", gt=0, plausible=r["pump_flow"])
         dsec = hyd.section("displacement")
-        displacement = tuple(dsec.number(n, gt=0) for n in JOINT_NAMES)
+        displacement = tuple(dsec.number(n, gt=0, plausible=r["displacement"]) for n in JOINT_NAMES)
         dsec.done()
         hyd.done()
+        for n, d in zip(JOINT_NAMES, displacement, strict=True):
+            dsec.check_plausible(n, pump_flow / d, r["pump_speed"], "the speed pump_flow / displacement: ")
 
     geo = top.section("geometry")
-    radii = {k: geo.number(k, gt=0) for k in ("column_radius", "boom_radius", "jib_radius", "telescope_radius")}
-    grapple_length = geo.number("grapple_length", gt=0)
-    grapple_radius = geo.number("grapple_radius", gt=0)
-    log_length = geo.number("log_length", gt=0)
-    log_diameter = geo.number("log_diameter", gt=0)
+    radii = {k: geo.number(k, gt=0, plausible=r["radius"])
+             for k in ("column_radius", "boom_radius", "jib_radius", "telescope_radius")}
+    grapple_length = geo.number("grapple_length", gt=0, plausible=r["grapple_length"])
+    grapple_radius = geo.number("grapple_radius", gt=0, plausible=r["radius"])
+    log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
+    log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
     top.done()
 
@@ -187,6 +259,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         grapple_radius=grapple_radius,
         log_length=log_length,
         log_diameter=log_diameter,
+        plausibility="relaxed" if relaxed else "strict",
         **radii,
     )
 

@@ -5,8 +5,11 @@ cylinders, spheres, capsules and triangle meshes placed with ``xyz`` + ``rpy``),
 a ground plane at ``ground_z``, named regions (boxes of tip positions where the
 crane works: target areas, pick-up areas, log piles), named tip points and named
 start configurations. :meth:`Scene.load` reads it strictly with
-:class:`motionlib.schema.Section`: unknown keys, wrong types and non-finite
-numbers are rejected with errors naming the file and the dotted key.
+:class:`motionlib.schema.Section`: unknown and duplicate keys, wrong types and non-finite
+numbers are rejected with errors naming the file and the dotted key, and every number,
+name and list is checked against its plausibility range (:data:`PLAUSIBLE`,
+:data:`MAX_ITEMS`; ``plausibility: relaxed`` at the top level widens the numeric ranges
+to the collision library's limits).
 
 Frames and units: the crane base frame (origin on the slewing axis at ground
 level, z up, x toward the load bunk); m and rad. ``rpy`` is roll-pitch-yaw about
@@ -17,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -24,14 +28,32 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..checks import COORDINATE_M, Plausible, short
 from ..errors import InputError, ModelFileError
-from ..schema import Section, check_number_list, load_yaml
+from ..schema import Section, check_count, check_number_list, load_yaml, read_plausibility
 from .crane_model import JOINT_NAMES
 from .kinematics import Crane
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "capsule", "mesh")
 #: Names the collision checker gives the crane's parts and the ground; obstacles may not use them.
 RESERVED_NAMES: tuple[str, ...] = ("ground", "column", "boom", "jib", "telescope", "grapple", "log")
+
+#: Plausibility ranges of a scene file's numbers (docs/scene-format.md, "Plausibility"). Positions
+#: (``xyz``, ``ground_z``, region centres, points, mesh vertices) within a km of the crane are plausible;
+#: beyond 100 km fcl's double-precision geometry degrades (at 1e308 it crashes), so no file goes there.
+PLAUSIBLE: dict[str, Plausible] = {
+    "position": COORDINATE_M,
+    "size": Plausible(1e-3, 1e3, 1e-6, 1e5, "m"),  # box edges, radii, cylinder lengths, region sizes
+    "capsule_length": Plausible(0.0, 1e3, 0.0, 1e5, "m"),
+    "angle": Plausible(-2 * math.pi, 2 * math.pi, -1e3, 1e3, "rad"),  # rpy
+}
+#: Largest number of items per list or mapping (the work of a collision query grows with them).
+MAX_ITEMS: dict[str, int] = {
+    "obstacles": 10_000, "regions": 1_000, "points": 10_000, "starts": 10_000,
+    "vertices": 100_000, "triangles": 200_000,
+}
+#: Longest name (obstacle, region, point, start) in characters.
+MAX_NAME_LENGTH = 200
 
 
 @dataclass(frozen=True)
@@ -195,6 +217,8 @@ class Scene:
         Named start configurations (rad, rad, rad, m).
     source : str or None
         File the scene was read from (not part of :attr:`digest`).
+    plausibility : str
+        ``strict`` or ``relaxed`` (the file's ``plausibility`` key).
     """
 
     name: str
@@ -206,6 +230,7 @@ class Scene:
     points: dict[str, tuple[float, ...]] = field(default_factory=dict)
     starts: dict[str, tuple[float, ...]] = field(default_factory=dict)
     source: str | None = None
+    plausibility: str = "strict"
 
     # ------------------------------------------------------------ reading
     @classmethod
@@ -234,11 +259,12 @@ class Scene:
     def from_dict(cls, data: Any, file: str = "<scene>", crane: Crane | None = None) -> Scene:
         """Validate the mapping of a scene file (see :meth:`load`)."""
         top = Section(data, file)
+        relaxed = read_plausibility(top)
         name = _name(top, "name")
         crane_name = _name(top, "crane")
         description = top.string("description", "")
-        ground_z = top.number("ground_z", 0.0)
-        obstacles = tuple(_read_obstacle(sec) for sec in top.sections("obstacles", []))
+        ground_z = top.number("ground_z", 0.0, plausible=PLAUSIBLE["position"])
+        obstacles = tuple(_read_obstacle(sec) for sec in top.sections("obstacles", [], MAX_ITEMS["obstacles"]))
         _reject_duplicates(top, "obstacles", [o.name for o in obstacles])
         for i, obstacle in enumerate(obstacles):
             if obstacle.name in RESERVED_NAMES:
@@ -246,7 +272,7 @@ class Scene:
                     f"obstacles[{i}].name",
                     f"{obstacle.name!r} is reserved for the crane and the ground ({', '.join(RESERVED_NAMES)})",
                 )
-        regions = tuple(_read_region(sec) for sec in top.sections("regions", []))
+        regions = tuple(_read_region(sec) for sec in top.sections("regions", [], MAX_ITEMS["regions"]))
         _reject_duplicates(top, "regions", [r.name for r in regions])
         points = {k: tuple(v) for k, v in _named_vectors(top, "points", 3).items()}
         starts_sec = top.section("starts", {})
@@ -267,6 +293,7 @@ class Scene:
             points=points,
             starts=starts,
             source=None if file.startswith("<") else file,
+            plausibility="relaxed" if relaxed else "strict",
         )
 
     def load_crane(self) -> Crane:
@@ -293,13 +320,14 @@ class Scene:
     def _lookup(self, table: dict[str, Any], name: str, what: str) -> Any:
         if name not in table:
             known = ", ".join(sorted(table)) or "none"
-            raise InputError(f"scene {self.name!r} has no {what} {name!r}: known {what}s: {known}")
+            raise InputError(f"scene {self.name!r} has no {what} {short(name)}: known {what}s: {short(known, 400)}")
         return table[name]
 
     # ------------------------------------------------------------ identity
     def to_dict(self) -> dict[str, Any]:
-        """Plain-data form in the scene-file layout (``source`` left out)."""
+        """Plain-data form in the scene-file layout (``source`` left out; ``plausibility`` only when relaxed)."""
         return {
+            **({"plausibility": self.plausibility} if self.plausibility != "strict" else {}),
             "name": self.name,
             "crane": self.crane_name,
             "description": self.description,
@@ -325,7 +353,13 @@ def _name(sec: Section, key: str) -> str:
     value = sec.string(key)
     if not value.strip():
         sec.fail(key, "expected a non-empty name")
+    _check_name_length(sec, key, value)
     return value
+
+
+def _check_name_length(sec: Section, key: str, name: str) -> None:
+    if len(name) > MAX_NAME_LENGTH:
+        sec.fail(key, f"expected a name of at most {MAX_NAME_LENGTH} characters, got {short(name)}")
 
 
 def _vector_positive(sec: Section, key: str) -> tuple[float, float, float]:
@@ -333,6 +367,7 @@ def _vector_positive(sec: Section, key: str) -> tuple[float, float, float]:
     for i, v in enumerate(values):
         if not v > 0:
             sec.fail(f"{key}[{i}]", f"expected a number > 0, got {v}")
+        sec.check_plausible(f"{key}[{i}]", v, PLAUSIBLE["size"])
     return _vec3(values)
 
 
@@ -343,16 +378,18 @@ def _vec3(values: list[float]) -> tuple[float, float, float]:
 def _read_obstacle(sec: Section) -> Obstacle:
     name = _name(sec, "name")
     shape = sec.string("shape", choices=SHAPES)
-    xyz = _vec3(sec.vector("xyz", 3))
-    rpy = _vec3(sec.vector("rpy", 3, [0.0, 0.0, 0.0]))
+    xyz = _vec3(sec.vector("xyz", 3, plausible=PLAUSIBLE["position"]))
+    rpy = _vec3(sec.vector("rpy", 3, [0.0, 0.0, 0.0], plausible=PLAUSIBLE["angle"]))
     kw: dict[str, Any] = {}
+    size = PLAUSIBLE["size"]
     if shape == "box":
         kw["size"] = _vector_positive(sec, "size")
     elif shape == "sphere":
-        kw["radius"] = sec.number("radius", gt=0)
+        kw["radius"] = sec.number("radius", gt=0, plausible=size)
     elif shape in ("cylinder", "capsule"):
-        kw["radius"] = sec.number("radius", gt=0)
-        kw["length"] = sec.number("length", gt=0) if shape == "cylinder" else sec.number("length", ge=0)
+        kw["radius"] = sec.number("radius", gt=0, plausible=size)
+        kw["length"] = (sec.number("length", gt=0, plausible=size) if shape == "cylinder"
+                        else sec.number("length", ge=0, plausible=PLAUSIBLE["capsule_length"]))
     else:
         kw["vertices"], kw["triangles"] = _read_mesh(sec)
     sec.done()
@@ -363,36 +400,43 @@ def _read_mesh(sec: Section) -> tuple[tuple, tuple]:
     raw_vertices = sec.raw("vertices")
     if not isinstance(raw_vertices, list) or len(raw_vertices) < 3:
         sec.fail("vertices", f"expected a list of at least 3 [x, y, z] points, got {_kind(raw_vertices)}")
-    vertices = tuple(tuple(check_number_list(sec, f"vertices[{i}]", v, 3)) for i, v in enumerate(raw_vertices))
+    check_count(sec, "vertices", raw_vertices, MAX_ITEMS["vertices"])
+    vertices = tuple(tuple(check_number_list(sec, f"vertices[{i}]", v, 3, PLAUSIBLE["position"]))
+                     for i, v in enumerate(raw_vertices))
     raw_triangles = sec.raw("triangles")
     if not isinstance(raw_triangles, list) or not raw_triangles:
         sec.fail("triangles", f"expected a list of [i, j, k] vertex indices, got {_kind(raw_triangles)}")
+    check_count(sec, "triangles", raw_triangles, MAX_ITEMS["triangles"])
     triangles = []
     for i, tri in enumerate(raw_triangles):
         key = f"triangles[{i}]"
         ok = isinstance(tri, list) and len(tri) == 3
         ok = ok and all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v < len(vertices) for v in tri)
         if not ok:
-            sec.fail(key, f"expected 3 vertex indices in [0, {len(vertices) - 1}], got {tri!r}")
+            sec.fail(key, f"expected 3 vertex indices in [0, {len(vertices) - 1}], got {short(tri)}")
         if len(set(tri)) != 3:
-            sec.fail(key, f"expected 3 different vertex indices, got {tri!r}")
+            sec.fail(key, f"expected 3 different vertex indices, got {short(tri)}")
         triangles.append(tuple(tri))
     return vertices, tuple(triangles)
 
 
 def _read_region(sec: Section) -> Region:
-    region = Region(name=_name(sec, "name"), center=_vec3(sec.vector("center", 3)), size=_vector_positive(sec, "size"))
+    center = _vec3(sec.vector("center", 3, plausible=PLAUSIBLE["position"]))
+    region = Region(name=_name(sec, "name"), center=center, size=_vector_positive(sec, "size"))
     sec.done()
     return region
 
 
 def _named_vectors(top: Section, key: str, size: int) -> dict[str, list[float]]:
+    """Named points (``size`` 3, positions) or starts (``size`` 4, checked against the crane's limits later)."""
     sec = top.section(key, {})
+    check_count(top, key, sec.data, MAX_ITEMS[key])
     out = {}
     for name in list(sec.data):
         if not isinstance(name, str) or not name.strip():
             sec.fail(str(name), f"expected a name (a non-empty string), got {_kind(name)}")
-        out[name] = sec.vector(name, size)
+        _check_name_length(sec, name, name)
+        out[name] = sec.vector(name, size, plausible=PLAUSIBLE["position"] if size == 3 else None)
     sec.done()
     return out
 
@@ -401,7 +445,7 @@ def _reject_duplicates(top: Section, key: str, names: list[str]) -> None:
     seen: set[str] = set()
     for i, name in enumerate(names):
         if name in seen:
-            top.fail(f"{key}[{i}].name", f"duplicate name {name!r}")
+            top.fail(f"{key}[{i}].name", f"duplicate name {short(name)}")
         seen.add(name)
 
 
@@ -429,4 +473,4 @@ def _check_limits(sec: Section, key: str, q: np.ndarray, crane: Crane) -> None:
 def _kind(value: Any) -> str:
     if isinstance(value, (dict, list)):
         return f"a {type(value).__name__} of {len(value)} items"
-    return f"{type(value).__name__} {value!r}"
+    return f"{type(value).__name__} {short(value)}"

@@ -6,6 +6,11 @@ telescope profile, and attributes (duration, limits, per-stage statuses and
 times). :func:`write_trajectory` / :func:`read_trajectory` store it in an HDF5
 group; a plan file (``motionlib plan -o``) holds one trajectory at its root,
 a library holds many under ``/trajectories``.
+
+Reads are verified: every array is stored with HDF5's Fletcher-32 checksum (a flipped
+bit is a read error), and :func:`check_trajectory` checks what was read (shapes, finite
+values, time from 0 and strictly increasing, duration) before anyone uses it; with the
+crane, also the joint limits.
 """
 
 from __future__ import annotations
@@ -13,14 +18,14 @@ from __future__ import annotations
 import math
 from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import h5py
 import numpy as np
 
 from ..errors import LibraryFileError
-from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors
-from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedding_attrs
+from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors, read_array
+from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models, embedding_attrs
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 
@@ -168,7 +173,7 @@ def _convert(name: str, value: Any, where: str) -> Any:
         if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
             raise TypeError("expected a number")
         return float(value)
-    except (TypeError, ValueError, KeyError) as exc:
+    except (TypeError, ValueError, KeyError, AttributeError, OverflowError) as exc:
         raise LibraryFileError(f"{label}: {exc}, got {value!r:.80}") from exc
 
 
@@ -229,8 +234,12 @@ _ARRAYS = {
 }
 
 
+#: Longest trajectory read (samples): 10^7 samples at 200 Hz are 14 hours of motion.
+MAX_SAMPLES = 10_000_000
+
+
 def write_trajectory(group: h5py.Group, traj: Trajectory, compression: str | None = "gzip") -> None:
-    """Store ``traj`` in ``group`` (chunked, compressed arrays; attributes as HDF5 attrs).
+    """Store ``traj`` in ``group`` (chunked arrays with a Fletcher-32 checksum, compressed when large).
 
     Scalars are stored as native attributes; lists and records as JSON strings
     (readable with ``h5dump``).
@@ -243,7 +252,8 @@ def write_trajectory(group: h5py.Group, traj: Trajectory, compression: str | Non
             data=data,
             compression=compression if big else None,
             shuffle=big and compression is not None,
-            chunks=True if big else None,
+            chunks=True if data.size else None,
+            fletcher32=bool(data.size),
         )
     group.attrs["schema"] = TRAJECTORY_SCHEMA
     group.attrs["schema_version"] = TRAJECTORY_VERSION
@@ -257,28 +267,85 @@ def read_trajectory(group: h5py.Group) -> Trajectory:
     Raises
     ------
     LibraryFileError
-        The group is not a motionlib trajectory, is of a newer schema version,
-        or misses a dataset.
+        The group is not a motionlib trajectory, is of a newer schema version, misses a
+        dataset or an attribute, is damaged (HDF5 or checksum error), or its data fail
+        :func:`check_trajectory`; the message names the file, the group and the object.
     """
     where = f"{group.file.filename}:{group.name}"
-    if group.attrs.get("schema") != TRAJECTORY_SCHEMA:
-        raise LibraryFileError(f"{where}: not a motionlib trajectory (schema attribute missing or wrong)")
-    version = int(group.attrs.get("schema_version", -1))
-    if version > TRAJECTORY_VERSION:
-        raise LibraryFileError(
-            f"{where}: trajectory schema version {version} is newer than this motionlib reads ({TRAJECTORY_VERSION})"
-        )
-    arrays = {}
-    for key, attr in _ARRAYS.items():
-        if key not in group:
-            raise LibraryFileError(f"{where}: missing dataset {key!r}")
-        arrays[attr] = group[key][()]
-    attrs = {
-        key: decode_attr(value, f"{where}: attribute {key!r}")
-        for key, value in group.attrs.items()
-        if key not in ("schema", "schema_version", CRANE_ATTR, SCENE_ATTR)
+    with hdf5_errors(f"{where}: damaged trajectory"):
+        schema = decode_attr(group.attrs.get("schema"), f"{where}: attribute 'schema'")
+        if schema != TRAJECTORY_SCHEMA:
+            raise LibraryFileError(f"{where}: not a motionlib trajectory (schema attribute missing or wrong)")
+        version = decode_attr(group.attrs.get("schema_version", -1), f"{where}: attribute 'schema_version'")
+        if isinstance(version, bool) or not isinstance(version, int):
+            raise LibraryFileError(f"{where}: attribute 'schema_version': expected an integer, got {version!r:.40}")
+        if version > TRAJECTORY_VERSION:
+            raise LibraryFileError(
+                f"{where}: trajectory schema version {version} is newer than this motionlib reads "
+                f"({TRAJECTORY_VERSION})"
+            )
+        arrays = {attr: read_array(group, key, where, MAX_SAMPLES * 4) for key, attr in _ARRAYS.items()}
+        attrs = {
+            key: decode_attr(value, f"{where}: attribute {key!r}")
+            for key, value in group.attrs.items()
+            if key not in ("schema", "schema_version", CRANE_ATTR, SCENE_ATTR)
+        }
+    traj = Trajectory(**arrays, info=TrajectoryInfo.from_attrs(attrs, where))
+    check_trajectory(traj, where)
+    return traj
+
+
+def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -> None:
+    """Check a trajectory read from a file before it is used.
+
+    Shapes agree (``t`` (N,), N >= 2; ``q``, ``qd``, ``qdd`` (N, 4); ``path_tip`` (M, 3)
+    with ``path_s`` (M,); ``waypoints`` (n, 3); ``spline_coefficients`` (4, m - 1, 3) with
+    ``spline_breakpoints`` (m,)); every value is finite; ``t`` starts at 0 and strictly
+    increases; ``info.duration_s`` is ``t[-1]``; ``info.start_q`` is ``q[0]``. With
+    ``crane``, every sample keeps the crane's position, velocity, acceleration and pump
+    limits within the verifier's 1 % tolerance.
+
+    Raises
+    ------
+    LibraryFileError
+        The first problem found; the message starts with ``where``.
+    """
+
+    def fail(what: str) -> NoReturn:
+        raise LibraryFileError(f"{where}: corrupt trajectory: {what}")
+
+    n = traj.t.shape[0] if traj.t.ndim == 1 else -1
+    m = traj.spline_breakpoints.shape[0] if traj.spline_breakpoints.ndim == 1 else -1
+    shapes = {
+        "t": (n,), "q": (n, 4), "qd": (n, 4), "qdd": (n, 4),
+        "path/s": (traj.path_s.shape[0] if traj.path_s.ndim == 1 else -1,),
+        "path/tip": (traj.path_s.shape[0] if traj.path_s.ndim == 1 else -1, 3),
+        "path/waypoints": (traj.waypoints.shape[0] if traj.waypoints.ndim == 2 else -1, 3),
+        "path/spline_breakpoints": (m,), "path/spline_coefficients": (4, m - 1, 3),
+        "telescope/control_points": (traj.telescope_control_points.shape[0]
+                                     if traj.telescope_control_points.ndim == 1 else -1,),
     }
-    return Trajectory(**arrays, info=TrajectoryInfo.from_attrs(attrs, where))
+    for key, attr in _ARRAYS.items():
+        value = getattr(traj, attr)
+        if value.shape != shapes[key] or min(shapes[key]) < 0:
+            fail(f"{key} has shape {value.shape}, expected {tuple('?' if d < 0 else d for d in shapes[key])}")
+        if not np.all(np.isfinite(value)):
+            fail(f"{key} holds a non-finite value")
+    if n < 2 or traj.path_s.shape[0] < 2 or m < 2 or traj.telescope_control_points.shape[0] < 1:
+        fail(f"too few samples (t {n}, path {traj.path_s.shape[0]}, spline breakpoints {m})")
+    if traj.t[0] != 0.0 or not np.all(np.diff(traj.t) > 0.0):
+        fail("t does not start at 0 and strictly increase")
+    if not math.isclose(traj.info.duration_s, float(traj.t[-1]), rel_tol=1e-9, abs_tol=1e-12):
+        fail(f"duration_s {traj.info.duration_s!r:.30} differs from the last time stamp {float(traj.t[-1])!r}")
+    start = np.asarray(traj.info.start_q, dtype=np.float64)
+    if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
+        fail(f"q[0] {np.round(traj.q[0], 6).tolist()} differs from start_q {np.round(start, 6).tolist()}")
+    if crane is not None:
+        from ..model.limits import limits_for, verify_samples  # imports TOPPRA: not at the top (select starts fast)
+
+        violations = verify_samples(traj.t, traj.q, traj.qd, traj.qdd, limits_for(crane), tol=0.01)
+        if violations:
+            fail(f"outside the limits of crane {crane.name!r}: {violations[0]}")
 
 
 def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) -> None:
@@ -299,6 +366,15 @@ def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) ->
 
 
 def load_plan(path: str | Path) -> Trajectory:
-    """Read a plan file written by :func:`save_plan`."""
+    """Read a plan file written by :func:`save_plan`, checked against its embedded crane's limits.
+
+    Raises
+    ------
+    LibraryFileError, ModelFileError
+        The file is missing, damaged or not a plan file, or its data fail :func:`check_trajectory`.
+    """
     with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
-        return read_trajectory(f)
+        crane, _ = embedded_models(f.attrs, str(path))
+        traj = read_trajectory(f)
+    check_trajectory(traj, str(path), crane)
+    return traj

@@ -33,7 +33,7 @@ class LoopOptions:
         ... for this long (s), with no automated motion running and the operator done.
     """
 
-    time_limit_s: float = param(60.0, gt=0.0)
+    time_limit_s: float = param(60.0, gt=0.0, le=86_400.0)  # a day; beyond, the step count overflows
     settle_speed_m_s: float = param(0.01, gt=0.0)
     settle_hold_s: float = param(0.3, gt=0.0)
 

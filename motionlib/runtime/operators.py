@@ -81,8 +81,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..checks import check_int, check_params, check_points, check_vector, param
+from ..checks import check_int, check_params, check_points, check_vector, param, short
 from ..errors import InputError, ModelFileError
+from ..fileio import path_exists
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
 from .control_types import Mode, OperatorInput
@@ -151,6 +152,10 @@ class PassiveOperator:
         return True
 
 
+#: Largest stick script read (bytes): 16 MiB is a day of 200 Hz samples.
+MAX_SCRIPT_BYTES = 16 * 1024 * 1024
+
+
 class ScriptedStick:
     """A stick script (see the module docstring for the CSV format).
 
@@ -192,33 +197,47 @@ class ScriptedStick:
         Raises
         ------
         ModelFileError
-            Missing or unknown columns, unparsable numbers or bad times; the message names file and line.
+            Unreadable, larger than :data:`MAX_SCRIPT_BYTES` or not UTF-8; missing or unknown
+            columns, unparsable numbers or bad times; the message names file and line.
         """
         path = Path(path)
         try:
-            text = path.read_text()
+            with open(path, "rb") as handle:
+                raw = handle.read(MAX_SCRIPT_BYTES + 1)
         except OSError as exc:
-            raise ModelFileError(f"{path}: cannot read ({exc.strerror})") from exc
+            raise ModelFileError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+        if len(raw) > MAX_SCRIPT_BYTES:
+            raise ModelFileError(f"{path}: larger than {MAX_SCRIPT_BYTES // 2**20} MiB; not a stick script")
+        try:
+            text = raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line = raw[: exc.start].count(b"\n") + 1
+            raise ModelFileError(f"{path}:{line}: not UTF-8 text (byte 0x{raw[exc.start]:02x})") from exc
         lines = [
             (n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip() and not ln.lstrip().startswith("#")
         ]
         if not lines:
             raise ModelFileError(f"{path}: empty stick script")
         reader = csv.reader([ln for _, ln in lines])
-        header = [h.strip() for h in next(reader)]
-        required = list(SCRIPT_COLUMNS[:6])
-        if header[:6] != required or header[6:] not in ([], ["dropout"]):
-            raise ModelFileError(
-                f"{path}:{lines[0][0]}: expected the header {','.join(required)}[,dropout], got {','.join(header)}"
-            )
-        rows = []
-        for (lineno, _), fields in zip(lines[1:], reader, strict=True):
-            if len(fields) != len(header):
-                raise ModelFileError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)}")
-            try:
-                rows.append([float(x) for x in fields])
-            except ValueError as exc:
-                raise ModelFileError(f"{path}:{lineno}: {exc}") from exc
+        lineno = lines[0][0]
+        try:
+            header = [h.strip() for h in next(reader)]
+            required = list(SCRIPT_COLUMNS[:6])
+            if header[:6] != required or header[6:] not in ([], ["dropout"]):
+                raise ModelFileError(
+                    f"{path}:{lineno}: expected the header {','.join(required)}[,dropout], "
+                    f"got {short(','.join(header))}"
+                )
+            rows = []
+            for (lineno, _), fields in zip(lines[1:], reader, strict=True):
+                if len(fields) != len(header):
+                    raise ModelFileError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)}")
+                try:
+                    rows.append([float(x) for x in fields])
+                except ValueError as exc:
+                    raise ModelFileError(f"{path}:{lineno}: expected numbers, got {short(','.join(fields))}") from exc
+        except csv.Error as exc:
+            raise ModelFileError(f"{path}:{lineno}: not CSV ({exc})") from exc
         if not rows:
             raise ModelFileError(f"{path}: no samples after the header")
         try:
@@ -487,10 +506,10 @@ def operator_kind(spec: str) -> str:
         return "passive"
     if spec in OPERATOR_PRESETS:
         return "preset"
-    if Path(spec).suffix.lower() == ".csv" or Path(spec).exists():
+    if Path(spec).suffix.lower() == ".csv" or path_exists(spec):
         return "script"
     presets = ", ".join(sorted(OPERATOR_PRESETS))
-    raise InputError(f"operator: expected passive, {presets} or a stick script .csv, got {spec!r}")
+    raise InputError(f"operator: expected passive, {presets} or a stick script .csv, got {short(spec)}")
 
 
 def make_operator(

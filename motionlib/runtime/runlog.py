@@ -20,7 +20,7 @@ import h5py
 import numpy as np
 
 from ..errors import LibraryFileError
-from ..fileio import atomic_output, json_default
+from ..fileio import atomic_output, decode_attr, hdf5_errors, json_default, parse_json, read_array
 from ..model.kinematics import Crane
 
 RUNLOG_SCHEMA = "motionlib.runlog"
@@ -161,47 +161,112 @@ def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str,
     return path
 
 
+#: Datasets of a run log read back: name -> shape after the sample axis (``tip_p``, ``tip_v`` optional).
+RUNLOG_DATASETS: dict[str, tuple[int, ...]] = {
+    "t": (), "q": (4,), "qd": (4,), "qd_cmd": (4,), "c_a": (), "c_o": (), "s_p": (), "deviation_m": (),
+    "flags": (), "authority": (), "swing_rad": (), "tip_p": (3,), "tip_v": (3,),
+}
+#: Longest run log read (samples): 10^7 samples at 200 Hz are 14 hours.
+MAX_RUNLOG_SAMPLES = 10_000_000
+#: Root attributes with a fixed type, checked when present.
+_TYPED_ATTRS: dict[str, type | tuple[type, ...]] = {
+    "crane": str, "library": str, "mode": str, "operator": str, "scene": str, "row": int, "entry": int,
+    "seed": int, "loaded": bool,
+}
+
+
 def read_runlog(path: str | Path) -> dict[str, Any]:
-    """Read a run log written by :func:`write_runlog`.
+    """Read a run log written by :func:`write_runlog`, checked before it is used.
 
     Returns
     -------
     dict
         The datasets by name (see :meth:`RunLog.arrays`), ``events`` (list of dict with
-        ``t``, ``name``, ``detail``), ``attrs`` (dict; ``summary`` decoded from JSON).
+        ``t``, ``name``, ``detail``), ``attrs`` (dict; ``summary`` decoded from JSON,
+        ``target_p`` and ``start_q`` as lists of numbers).
 
     Raises
     ------
     LibraryFileError
-        Not an HDF5 file, not a motionlib run log, or a newer schema version.
+        Not an HDF5 file, not a motionlib run log, a newer schema version, or damaged:
+        a dataset missing, of the wrong dtype or shape, ``t`` not finite and increasing,
+        ``q`` or ``qd_cmd`` not finite, events or attributes unreadable. The message names
+        the file and the object.
     """
     try:
         f = h5py.File(path, "r")
     except OSError as exc:
         raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
-    with f:
-        if f.attrs.get("schema") != RUNLOG_SCHEMA:
+    with f, hdf5_errors(f"{path}: damaged run log"):
+        if decode_attr(f.attrs.get("schema"), f"{path}: attribute 'schema'") != RUNLOG_SCHEMA:
             raise LibraryFileError(f"{path}: not a motionlib run log (schema attribute missing or wrong)")
-        version = int(f.attrs.get("schema_version", -1))
+        version = decode_attr(f.attrs.get("schema_version", -1), f"{path}: attribute 'schema_version'")
+        if isinstance(version, bool) or not isinstance(version, int):
+            raise LibraryFileError(f"{path}: attribute 'schema_version': expected an integer, got {version!r:.40}")
         if version > RUNLOG_VERSION:
             raise LibraryFileError(f"{path}: run-log schema version {version} is newer than this motionlib reads")
-        out: dict[str, Any] = {k: f[k][()] for k in f if isinstance(f[k], h5py.Dataset)}
-        ev = f["events"]
-        names = [n.decode() if isinstance(n, bytes) else str(n) for n in ev["name"][()]]
-        details = [n.decode() if isinstance(n, bytes) else str(n) for n in ev["detail"][()]]
-        out["events"] = [
-            {"t": float(t), "name": n, "detail": d} for t, n, d in zip(ev["t"][()], names, details, strict=True)
-        ]
-        attrs = {}
-        for key, value in f.attrs.items():
-            if isinstance(value, bytes):
-                value = value.decode()
-            if isinstance(value, np.generic):
-                value = value.item()
-            if key == "summary":
-                value = json.loads(value)
-            attrs[key] = value
-        out["attrs"] = attrs
+        out: dict[str, Any] = _read_datasets(f, str(path))
+        out["events"] = _read_events(f, str(path))
+        out["attrs"] = _read_attrs(f.attrs, str(path))
+    return out
+
+
+def _read_datasets(f: h5py.File, where: str) -> dict[str, np.ndarray]:
+    t = read_array(f, "t", where, MAX_RUNLOG_SAMPLES)
+    n = t.shape[0] if t.ndim == 1 else -1
+    if n < 0 or not np.all(np.isfinite(t)) or not np.all(np.diff(t) > 0.0):
+        raise LibraryFileError(f"{where}: dataset t: expected finite, strictly increasing times")
+    out = {"t": t}
+    for key, tail in RUNLOG_DATASETS.items():
+        if key == "t" or (key.startswith("tip_") and key not in f):
+            continue
+        dtype = {"flags": np.uint16, "authority": np.int8}.get(key, np.float64)
+        data = read_array(f, key, where, MAX_RUNLOG_SAMPLES * 4, dtype)
+        if data.shape != (n, *tail):
+            raise LibraryFileError(f"{where}: dataset {key} has shape {data.shape}, expected {(n, *tail)}")
+        finite = np.isfinite(data)
+        if key in ("s_p", "deviation_m"):  # NaN while no automated motion runs
+            finite |= np.isnan(data)
+        if not np.all(finite):
+            raise LibraryFileError(f"{where}: dataset {key} holds a non-finite value")
+        out[key] = data
+    return out
+
+
+def _read_events(f: h5py.File, where: str) -> list[dict[str, Any]]:
+    ev = f.get("events")
+    if not isinstance(ev, h5py.Group):
+        raise LibraryFileError(f"{where}: group events is missing")
+    times = read_array(ev, "t", f"{where}: events", MAX_RUNLOG_SAMPLES)
+    texts = []
+    for key in ("name", "detail"):
+        ds = ev.get(key)
+        if not isinstance(ds, h5py.Dataset) or h5py.check_string_dtype(ds.dtype) is None or ds.shape != times.shape:
+            raise LibraryFileError(f"{where}: events/{key}: expected {times.shape[0]} strings")
+        texts.append(ds.asstr()[()].tolist() if times.size else [])
+    if times.ndim != 1 or not np.all(np.isfinite(times)):
+        raise LibraryFileError(f"{where}: events/t: expected finite times")
+    return [{"t": float(t), "name": n, "detail": d} for t, n, d in zip(times, *texts, strict=True)]
+
+
+def _read_attrs(attrs: Any, where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in attrs.items():
+        label = f"{where}: attribute {key!r}"
+        value = decode_attr(value, label)
+        if key == "summary" or (key in ("target_p", "start_q") and isinstance(value, str)):
+            value = parse_json(value, label) if isinstance(value, str) else value
+        if key in ("target_p", "start_q"):
+            size = 3 if key == "target_p" else 4
+            arr = np.asarray(value, dtype=object)
+            ok = arr.shape == (size,) and all(isinstance(v, int | float) and not isinstance(v, bool) for v in arr)
+            if not ok or not np.all(np.isfinite(np.asarray(value, dtype=np.float64))):
+                raise LibraryFileError(f"{label}: expected {size} finite numbers, got {value!r:.80}")
+        if key in _TYPED_ATTRS and not isinstance(value, _TYPED_ATTRS[key]):
+            raise LibraryFileError(f"{label}: expected {_TYPED_ATTRS[key]}, got {value!r:.80}")
+        if key == "summary" and not isinstance(value, dict):
+            raise LibraryFileError(f"{label}: expected a JSON object")
+        out[key] = value
     return out
 
 

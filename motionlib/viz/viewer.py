@@ -36,14 +36,14 @@ import h5py
 import numpy as np
 import plotly.graph_objects as go
 
-from ..checks import check_scalar
+from ..checks import check_scalar, short
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output, hdf5_errors
+from ..fileio import atomic_output, decode_attr, hdf5_errors, path_exists, read_array
 from ..library.store import Library, entry_id
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models
 from ..model.kinematics import Crane
 from ..model.scene import Scene
-from ..planning.trajectory import Trajectory, read_trajectory
+from ..planning.trajectory import MAX_SAMPLES, Trajectory, check_trajectory, read_trajectory
 from ..runtime.control_types import Authority
 from ..runtime.runlog import read_runlog
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
@@ -423,6 +423,7 @@ def trajectory_view(path: Path, options: ViewOptions) -> View:
     with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
         crane, scene = embedded_models(f.attrs, str(path))
         traj = read_trajectory(f)
+    check_trajectory(traj, str(path), crane)
     return View(trajectory_figure(crane, scene, traj, options))
 
 
@@ -486,6 +487,14 @@ def library_figure(
     return fig
 
 
+def _tip_path(f: h5py.File, name: str, where: str) -> np.ndarray:
+    """A stored tip path, shape (M, 3) with M >= 1, finite (m)."""
+    tip = read_array(f, name, where, 3 * MAX_SAMPLES)
+    if tip.ndim != 2 or tip.shape[0] < 1 or tip.shape[1] != 3 or not np.all(np.isfinite(tip)):
+        raise LibraryFileError(f"{where}: corrupt library: {name} is not a finite (M, 3) array (shape {tip.shape})")
+    return tip
+
+
 _LIBRARY_SCRIPT = """
 (function () {
   var gd = document.getElementById('{plot_id}');
@@ -511,7 +520,7 @@ def library_view(path: Path, options: ViewOptions) -> View:
     crane, scene = library.crane, library.scene
     with hdf5_errors(f"{path}: cannot read the library's paths"), h5py.File(path, "r") as f:
         # Every path in one pass over the open file (layout: docs/library-format.md).
-        paths = [f[f"trajectories/{entry_id(e)}/path/tip"][()] for e in library.entry]
+        paths = [_tip_path(f, f"/trajectories/{entry_id(e)}/path/tip", str(path)) for e in library.entry]
     fig = library_figure(library, crane, scene, paths, options)
     script = _LIBRARY_SCRIPT % {
         "paths": json.dumps([[np.round(p[:, k], 3).tolist() for k in range(3)] for p in paths]),
@@ -565,9 +574,9 @@ def runlog_figure(
             hovertemplate="t %{customdata[0]:.2f} s, c_a %{customdata[1]:.2f}<extra></extra>",
         )
     )  # fmt: skip
-    target = attrs.get("target_p")
+    target = attrs.get("target_p")  # checked by read_runlog: 3 finite numbers
     if target is not None:
-        target = np.asarray(json.loads(target) if isinstance(target, str) else target, dtype=np.float64)
+        target = np.asarray(target, dtype=np.float64)
         fig.add_trace(
             go.Scatter3d(
                 x=[target[0]], y=[target[1]], z=[target[2]], mode="markers", name="target",
@@ -610,9 +619,9 @@ def _runlog_library(path: Path, recorded: str | None, given: str | None) -> Path
     else:
         candidates = []
     for candidate in candidates:
-        if candidate.is_file():
+        if path_exists(candidate, file=True):
             return candidate
-    what = f"the library {given!r}" if given else f"its library {recorded!r}" if recorded else "no library"
+    what = f"the library {short(given)}" if given else f"its library {short(recorded)}" if recorded else "no library"
     raise LibraryFileError(
         f"{path}: a run log takes its crane and scene from the library it was executed from, and {what} "
         "was not found (give it with --library)"
@@ -665,17 +674,17 @@ def file_kind(path: str | Path) -> str:
         Missing, not HDF5, or of a schema without a view.
     """
     path = Path(path)
-    if not path.is_file():
+    if not path_exists(path, file=True):
         raise LibraryFileError(f"{path}: no such file")
     try:
         with h5py.File(path, "r") as f:
-            schema = f.attrs.get("schema")
+            schema = decode_attr(f.attrs.get("schema"), f"{path}: attribute 'schema'")
     except OSError as exc:
         raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
-    if isinstance(schema, bytes):
-        schema = schema.decode()
-    if schema not in KINDS:
-        raise LibraryFileError(f"{path}: no view for schema {schema!r}: expected one of {', '.join(sorted(KINDS))}")
+    except (KeyError, RuntimeError, ValueError, TypeError) as exc:
+        raise LibraryFileError(f"{path}: damaged HDF5 attribute 'schema' ({type(exc).__name__})") from exc
+    if not isinstance(schema, str) or schema not in KINDS:
+        raise LibraryFileError(f"{path}: no view for schema {schema!r:.60}: expected one of {', '.join(sorted(KINDS))}")
     return schema
 
 

@@ -30,8 +30,25 @@ LAB_SCENE = ROOT / "obstacles" / "log-loading.yaml"
 STARTS = np.array([[0.0, 0.5235, -1.4434, 0.4], [1.5708, 0.482, -1.4267, 0.4], [2.4038, 0.4893, -1.4462, 0.4]])
 
 
+def feasible_duration(crane: Crane, q0: np.ndarray, q1: np.ndarray) -> float:
+    """Shortest duration (s) of the smooth step q0 -> q1 within the crane's velocity, acceleration and pump limits.
+
+    The smooth step s(u) = 3u^2 - 2u^3 peaks at ds/dt = 1.5 / T and d2s/dt2 = 6 / T^2.
+    """
+    dq = np.abs(q1 - q0)
+    v = np.minimum(-crane.qd_min, crane.qd_max)
+    t_min = max(np.max(1.5 * dq / v), np.sqrt(np.max(6.0 * dq / crane.qdd_max)))
+    if crane.model.pump_flow is not None:
+        t_min = max(t_min, 1.5 * float(np.asarray(crane.model.displacement) @ dq) / crane.model.pump_flow)
+    return float(t_min)
+
+
 def synthetic_trajectory(crane: Crane, q0: np.ndarray, q1: np.ndarray, duration_s: float, n: int = 24) -> Trajectory:
-    """A smooth-step joint motion q0 -> q1 sampled at n points, with the attributes the library needs."""
+    """A smooth-step joint motion q0 -> q1 sampled at n points, with the attributes the library needs.
+
+    The duration is at least :func:`feasible_duration`, so that the trajectory keeps the crane's limits.
+    """
+    duration_s = max(duration_s, feasible_duration(crane, q0, q1))
     t = np.linspace(0.0, duration_s, n)
     u = t / duration_s
     s = 3 * u**2 - 2 * u**3
