@@ -32,6 +32,7 @@ from ..checks import COORDINATE_M, Plausible, short
 from ..errors import InputError, ModelFileError
 from ..schema import Section, check_count, check_number_list, load_yaml, read_plausibility
 from .crane_model import JOINT_NAMES
+from .frames import CommandFrame, PointFrame, read_frames
 from .kinematics import Crane
 
 SHAPES: tuple[str, ...] = ("box", "cylinder", "sphere", "capsule", "mesh")
@@ -50,7 +51,7 @@ PLAUSIBLE: dict[str, Plausible] = {
 #: Largest number of items per list or mapping (the work of a collision query grows with them).
 MAX_ITEMS: dict[str, int] = {
     "obstacles": 10_000, "regions": 1_000, "points": 10_000, "starts": 10_000,
-    "vertices": 100_000, "triangles": 200_000,
+    "vertices": 100_000, "triangles": 200_000, "frames": 1_000,
 }
 #: Longest name (obstacle, region, point, start) in characters.
 MAX_NAME_LENGTH = 200
@@ -215,6 +216,9 @@ class Scene:
         Named tip points (m, base frame).
     starts : dict of str to tuple of 4 float
         Named start configurations (rad, rad, rad, m).
+    frames : dict of str to PointFrame or CommandFrame
+        Named control frames (001 section 2): MRF points and CRF view frames
+        (:mod:`motionlib.model.frames`).
     source : str or None
         File the scene was read from (not part of :attr:`digest`).
     plausibility : str
@@ -229,6 +233,7 @@ class Scene:
     regions: tuple[Region, ...] = ()
     points: dict[str, tuple[float, ...]] = field(default_factory=dict)
     starts: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    frames: dict[str, PointFrame | CommandFrame] = field(default_factory=dict)
     source: str | None = None
     plausibility: str = "strict"
 
@@ -277,6 +282,7 @@ class Scene:
         points = {k: tuple(v) for k, v in _named_vectors(top, "points", 3).items()}
         starts_sec = top.section("starts", {})
         starts = {k: tuple(v) for k, v in _named_vectors(top, "starts", 4).items()}
+        frames = read_frames(top, MAX_ITEMS["frames"])
         top.done()
 
         if crane is None:
@@ -292,6 +298,7 @@ class Scene:
             regions=regions,
             points=points,
             starts=starts,
+            frames=frames,
             source=None if file.startswith("<") else file,
             plausibility="relaxed" if relaxed else "strict",
         )
@@ -312,6 +319,10 @@ class Scene:
     def region(self, name: str) -> Region:
         """Named region."""
         return self._lookup({r.name: r for r in self.regions}, name, "region")
+
+    def frame(self, name: str) -> PointFrame | CommandFrame:
+        """Named control frame declared in the file (``frames``)."""
+        return self._lookup(self.frames, name, "frame")
 
     def obstacle(self, name: str) -> Obstacle:
         """Named obstacle."""
@@ -336,6 +347,8 @@ class Scene:
             "regions": [r.to_dict() for r in self.regions],
             "points": {k: list(v) for k, v in self.points.items()},
             "starts": {k: list(v) for k, v in self.starts.items()},
+            # only when declared: the digest of a scene without frames is unchanged
+            **({"frames": {k: f.to_dict() for k, f in self.frames.items()}} if self.frames else {}),
         }
 
     @property
