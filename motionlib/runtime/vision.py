@@ -1,0 +1,229 @@
+"""Vision control (001 section 2.4): a simulated camera on the grapple and its error-driven rate source.
+
+The camera (:class:`SimulatedCamera`) is rigidly attached to the hanging grapple frame G
+(:mod:`motionlib.model.frames`) at ``offset`` and looks straight down. Its lens frame L has
+``x_L`` along the boom's heading, ``y_L`` to its right and ``z_L`` down (the optical axis). At its
+frame rate it measures the target point (the grasp point of a log) relative to the lens, in L
+coordinates, with Gaussian noise, and delivers each measurement ``latency_s`` after the capture;
+a target outside the viewing cone (``fov_half_angle_rad`` about ``z_L``) or beyond ``range_max_m``
+gives no measurement.
+
+:class:`VisionSource` turns the latest delivered measurement ``C`` and the desired one ``R``
+(where the target should appear when the grapple is over it) into the error ``E = C - R`` and the
+lens rate ``v_L = R_BL K_V E`` (001 section 2.4: "the error vector is multiplied by the vector gain
+K_V"), with ``R_BL`` the lens orientation at capture time; moving the lens by ``v`` changes the
+measurement by ``-R_BL^T v``, so each axis's error decays as ``exp(-K_V t)``. The lens rate is
+then transformed from the lens to the tip by 001 eq. 1 (:func:`motionlib.model.frames.tip_rate_for`)
+before it goes to the summing junction. A zero gain disables an axis (001 section 2.6).
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+from ..checks import check_int, check_params, check_scalar, check_vector, param
+from ..model.frames import Mat3, mrf_position, rotate, tip_rate_for
+from .sources import RateSource, StepContext, Vec3
+
+
+@dataclass(frozen=True)
+class CameraParams:
+    """Parameters of :class:`SimulatedCamera` (all assumptions; 001 gives no camera data).
+
+    Attributes
+    ----------
+    noise_m : float
+        Standard deviation (m) of each coordinate of a measured target position.
+    latency_s : float
+        Delay (s) from capture to delivery (image processing and transfer).
+    frame_rate_hz : float
+        Captures per second.
+    fov_half_angle_rad : float
+        Half-angle (rad) of the viewing cone about the optical axis.
+    range_max_m : float
+        Farthest target distance (m) the camera resolves.
+    max_age_s : float
+        A delivered measurement older than this (s, since capture) counts as lost.
+    seed : int
+        Seed of the noise.
+    """
+
+    noise_m: float = param(0.01, ge=0.0)
+    latency_s: float = param(0.1, ge=0.0)
+    frame_rate_hz: float = param(15.0, gt=0.0)
+    fov_half_angle_rad: float = param(0.5, gt=0.0, lt=math.pi / 2)
+    range_max_m: float = param(8.0, gt=0.0)
+    max_age_s: float = param(0.5, gt=0.0)
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_params(self)
+        check_int(self.seed, "seed")
+
+
+@dataclass(frozen=True)
+class CameraFrame:
+    """One delivered measurement.
+
+    Attributes
+    ----------
+    t_capture : float
+        Capture time (s).
+    q1 : float
+        Slew angle (rad) at capture (fixes the lens orientation the measurement is in).
+    target_l : tuple of 3 float
+        Measured target position relative to the lens, in L coordinates (m).
+    """
+
+    t_capture: float
+    q1: float
+    target_l: Vec3
+
+
+def lens_rotation(q1: float) -> Mat3:
+    """``R_BL`` (3, 3): lens (L) to base coordinates at slew ``q1`` (rad); columns ``x_L, y_L, z_L``."""
+    c, s = math.cos(q1), math.sin(q1)
+    # x_L = e_r = (c, s, 0), y_L = -e_t = (s, -c, 0), z_L = -z
+    return ((c, s, 0.0), (s, -c, 0.0), (0.0, 0.0, -1.0))
+
+
+class SimulatedCamera:
+    """A down-looking camera on the grapple (module docstring).
+
+    Parameters
+    ----------
+    target : array_like, shape (3,)
+        The target point (m, base frame); :attr:`target` may be moved later.
+    params : CameraParams, optional
+    offset : array_like, shape (3,)
+        Lens position relative to the tip in the grapple frame G (m); default at the tip.
+    """
+
+    def __init__(self, target: Any, params: CameraParams | None = None, offset: Any = (0.0, 0.0, 0.0)):
+        self.params = params or CameraParams()
+        self.target: Vec3 = _vec3(check_vector(target, 3, "target"))
+        self.offset: Vec3 = _vec3(check_vector(offset, 3, "offset"))
+        self._rng = random.Random(int(self.params.seed))
+        self._pending: deque[tuple[float, CameraFrame]] = deque()
+        self._latest: CameraFrame | None = None
+        self._next_capture = -math.inf
+        self.captures = 0
+        """Frames in which the target was visible."""
+
+    def sees(self, rel_l: Vec3) -> bool:
+        """True when a target at ``rel_l`` (3,) (m, L coordinates) is in the viewing cone and range."""
+        prm = self.params
+        x, y, z = rel_l
+        return z > 0.0 and math.hypot(x, y) <= z * math.tan(prm.fov_half_angle_rad) and math.sqrt(
+            x * x + y * y + z * z
+        ) <= prm.range_max_m
+
+    def capture(self, t: float, tip: Vec3, q1: float) -> None:
+        """Take a picture at time ``t`` (s) if one is due, with the tip at ``tip`` (3,) (m) and slew ``q1`` (rad)."""
+        if t < self._next_capture:
+            return
+        prm = self.params
+        period = 1.0 / prm.frame_rate_hz
+        self._next_capture = t + period if self._next_capture == -math.inf else max(
+            self._next_capture + period, t
+        )
+        lens = mrf_position(tip, q1, self.offset)
+        d = (self.target[0] - lens[0], self.target[1] - lens[1], self.target[2] - lens[2])
+        rot = lens_rotation(q1)
+        rel = (
+            rot[0][0] * d[0] + rot[1][0] * d[1] + rot[2][0] * d[2],
+            rot[0][1] * d[0] + rot[1][1] * d[1] + rot[2][1] * d[2],
+            rot[0][2] * d[0] + rot[1][2] * d[1] + rot[2][2] * d[2],
+        )
+        if not self.sees(rel):
+            return
+        g = self._rng.gauss
+        s = prm.noise_m
+        meas = (rel[0] + g(0.0, s), rel[1] + g(0.0, s), rel[2] + g(0.0, s))
+        self.captures += 1
+        self._pending.append((t + prm.latency_s, CameraFrame(t, q1, meas)))
+
+    def latest(self, t: float) -> CameraFrame | None:
+        """The newest measurement delivered by time ``t`` (s); None if none or older than ``max_age_s``."""
+        pending = self._pending
+        while pending and pending[0][0] <= t:
+            self._latest = pending.popleft()[1]
+        frame = self._latest
+        if frame is None or t - frame.t_capture > self.params.max_age_s:
+            return None
+        return frame
+
+
+class VisionSource(RateSource):
+    """The vision controller as an automation source (001 section 2.4, module docstring).
+
+    Parameters
+    ----------
+    camera : SimulatedCamera
+    goal_l : array_like, shape (3,)
+        Desired target position in lens coordinates (m), e.g. ``(0, 0, d)``: the target ``d``
+        below the lens on the optical axis.
+    gains : array_like, shape (3,)
+        ``K_V`` per lens axis (1/s); 0 disables an axis.
+    v_max_m_s : float
+        Largest commanded lens speed (m/s); the direction is kept.
+    arrive_tol_m, arrive_speed_m_s : float
+        Arrived when the measured error is below this (m) and the tip slower than this (m/s).
+
+    Attributes
+    ----------
+    visible : bool
+        Whether the last step had a current measurement (no measurement: zero rate).
+    """
+
+    role = "automation"
+    space = "cartesian"
+
+    def __init__(
+        self,
+        camera: SimulatedCamera,
+        goal_l: Any,
+        gains: Any = (1.0, 1.0, 1.0),
+        v_max_m_s: float = 0.4,
+        name: str = "vision",
+        enabled: bool = True,
+        arrive_tol_m: float = 0.03,
+        arrive_speed_m_s: float = 0.02,
+    ):
+        super().__init__(name, gains, enabled)
+        self.camera = camera
+        self.goal: Vec3 = _vec3(check_vector(goal_l, 3, "goal_l"))
+        self.v_max = check_scalar(v_max_m_s, "v_max_m_s", gt=0.0)
+        self.arrive_tol = check_scalar(arrive_tol_m, "arrive_tol_m", gt=0.0)
+        self.arrive_speed = check_scalar(arrive_speed_m_s, "arrive_speed_m_s", gt=0.0)
+        self.visible = False
+
+    def rate(self, ctx: StepContext) -> Vec3:
+        cam = self.camera
+        q1 = ctx.q[0]
+        cam.capture(ctx.t, ctx.p, q1)
+        frame = cam.latest(ctx.t)
+        self.visible = frame is not None
+        if frame is None:
+            self.dist_end_m = math.inf
+            return (0.0, 0.0, 0.0)
+        m, g, k = frame.target_l, self.goal, self.gains
+        e = (m[0] - g[0], m[1] - g[1], m[2] - g[2])
+        self.dist_end_m = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        v = rotate(lens_rotation(frame.q1), (k[0] * e[0], k[1] * e[1], k[2] * e[2]))
+        speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        if speed > self.v_max:
+            f = self.v_max / speed
+            v = (v[0] * f, v[1] * f, v[2] * f)
+        return tip_rate_for(ctx.p, q1, cam.offset, v)
+
+    def arrived(self, ctx: StepContext) -> bool:
+        return self.visible and self.dist_end_m <= self.arrive_tol and ctx.tip_speed <= self.arrive_speed
+
+
+def _vec3(a: Any) -> Vec3:
+    return (float(a[0]), float(a[1]), float(a[2]))
