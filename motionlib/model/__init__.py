@@ -18,4 +18,7 @@ collision
     Crane-against-scene collision and distance queries with python-fcl.
 urdf
     The crane as URDF.
+frames
+    Control frames (001 section 2): MRF points on the grapple and log, base/slew/view CRFs and
+    the rigid-body velocity transformation of 001 eq. 1.
 """

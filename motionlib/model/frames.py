@@ -35,7 +35,7 @@ slewing axis (``R + o_x = 0``), where no slew moves it sideways.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.spatial.transform import Rotation
@@ -107,6 +107,7 @@ class CommandFrame:
     kind: str = "base"
     rpy: Vec3 = (0.0, 0.0, 0.0)
     origin: Vec3 = (0.0, 0.0, 0.0)
+    _fixed: Mat3 = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if self.kind not in CRF_KINDS:
@@ -118,7 +119,7 @@ class CommandFrame:
         """Rotation ``R`` (3, 3) from CRF to base coordinates (``v_base = R v_crf``) at slew angle ``q1`` (rad)."""
         if self.kind == "slew":
             return _rot_z(q1)
-        return self._fixed  # type: ignore[attr-defined, no-any-return]
+        return self._fixed
 
     def to_dict(self) -> dict:
         """The frame in the scene-file layout."""

@@ -8,6 +8,14 @@ controller
     :class:`~.controller.SharedController`: one ``step(state, inputs) -> qd_cmd`` (000 section 2).
 sources
     Input sources of the summing junction (001 Fig. 1): joysticks, path tracker, position source.
+frames_source
+    :class:`~.frames_source.FrameSource`: any Cartesian source acting on an MRF in a CRF (001 eq. 1).
+vision
+    A simulated camera on the grapple and the vision source (001 section 2.4).
+contact
+    Ground contact of the grapple (penalty spring-damper), computed outside the plant.
+accommodation
+    The force-accommodation source, a damping-only impedance (001 section 2.5).
 tracker
     Path tracking with nearest point and look-ahead (000 eq. 3).
 mixer

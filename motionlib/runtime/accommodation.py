@@ -55,13 +55,13 @@ class AccommodationSource(RateSource):
         super().__init__(name, gains, enabled)
         if any(g < 0.0 for g in self.gains):
             raise InputError(f"gains: expected K_F >= 0 (m/(N s)), got {list(self.gains)}")
-        self.force_des: Vec3 = tuple(check_vector(force_des, 3, "force_des").tolist())  # type: ignore[assignment]
+        self.force_des: Vec3 = tuple(check_vector(force_des, 3, "force_des").tolist())
         self.f_env: Vec3 = (0.0, 0.0, 0.0)
         """Last sensed force of the environment on the grapple (N, base frame)."""
 
     @staticmethod
     def gains_for_bound(force_bound_n: float, v_push_m_s: float, margin: float = 0.8) -> tuple[float, float, float]:
-        """``K_F`` (3,) (m/(N s)) that settles a contact pushed at ``v_push_m_s`` (m/s) at ``margin`` x the bound (N)."""
+        """``K_F`` (3,) (m/(N s)): a contact pushed at ``v_push_m_s`` (m/s) settles at ``margin`` x the bound (N)."""
         bound = check_scalar(force_bound_n, "force_bound_n", gt=0.0)
         v = check_scalar(v_push_m_s, "v_push_m_s", gt=0.0)
         m = check_scalar(margin, "margin", gt=0.0, le=1.0)
@@ -70,7 +70,7 @@ class AccommodationSource(RateSource):
 
     def sense(self, f_env: Any) -> None:
         """The sensor reading for the next step: force (3,) (N, base) of the environment on the grapple."""
-        self.f_env = tuple(check_vector(f_env, 3, "f_env").tolist())  # type: ignore[assignment]
+        self.f_env = tuple(check_vector(f_env, 3, "f_env").tolist())
 
     def rate(self, ctx: StepContext) -> Vec3:
         k, fd, f = self.gains, self.force_des, self.f_env

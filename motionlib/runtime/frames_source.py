@@ -19,6 +19,7 @@ It plugs into the summing junction like any source
 from __future__ import annotations
 
 import math
+
 from ..errors import InputError
 from ..model.frames import (
     BASE_CRF,
@@ -63,7 +64,7 @@ class FrameSource(RateSource):
         self.p_mrf: Vec3 = (math.nan, math.nan, math.nan)
         """MRF position (m, base frame) at the last step."""
 
-    @property  # type: ignore[override]
+    @property
     def enabled(self) -> bool:
         """The wrapped source's enable switch."""
         return self.inner.enabled
