@@ -6,12 +6,15 @@ import numpy as np
 import pytest
 
 from motionlib.errors import InputError
+from motionlib.model.frames import SLEW_CRF, mrf_position, standard_mrfs
 from motionlib.model.kinematics import Crane
 from motionlib.runtime.accommodation import AccommodationSource
 from motionlib.runtime.contact import ContactParams, GroundContact
 from motionlib.runtime.control_types import OperatorInput
 from motionlib.runtime.controller import SharedController
+from motionlib.runtime.frames_source import FrameSource
 from motionlib.runtime.plant import SimulatedCrane
+from motionlib.runtime.sources import CartesianJoystick
 
 DT = 0.005
 BOUND_N = 3000.0
@@ -69,3 +72,37 @@ def test_accommodation_rate_and_contact_law():
     assert ground.force(0.1, (0.0, 0.0, 0.49)) == pytest.approx((0.0, 0.0, 1e4 * 0.01 + 100.0 * 0.1))
     assert ground.force(0.2, (0.0, 0.0, 0.495))[2] == pytest.approx(1e4 * 0.005 - 100.0 * 0.05)
     assert ground.force(0.3, (0.0, 0.0, 0.4999))[2] == 0.0  # leaving fast: no adhesion
+
+
+def test_stick_on_the_log_end_and_accommodation_at_once(lab):
+    """001 section 2.6: two sources on the same axes at once, through the controller.
+
+    The stick moves the log's end out along the boom (slew-following CRF, 0.1 m/s) and pushes down
+    (0.2 m/s) while the grapple rests on the ground; accommodation balances the push. The log end
+    keeps its commanded horizontal rate and the force settles at the closed form ``v / K_F``.
+    """
+    log_end = standard_mrfs(lab.model)["log_end"]
+    stick = FrameSource(CartesianJoystick((0.2, 0.2, 0.2), frame="base"), log_end, SLEW_CRF)
+    ctrl = SharedController(lab, "M4", joystick=stick)
+    acc = AccommodationSource(AccommodationSource.gains_for_bound(1500.0, 0.2, margin=0.8))
+    ctrl.add_source(acc)
+    contact = GroundContact(ContactParams(ground_z=0.0))
+    sim = SimulatedCrane(lab, lab.ik([2.2, -0.6, lab.model.grapple_length], 0.2, q1_ref=-0.3))
+    axes = (0.5, 0.0, 0.0, -1.0)
+    samples = []
+    for k in range(int(round(5.0 / DT))):
+        state = sim.state()
+        acc.sense(contact.force(sim.t, sim.grapple))
+        if k * DT >= 2.0:
+            samples.append((sim.t, np.array(mrf_position(sim.tip, sim.q[0], log_end.offset)), sim.q[0]))
+        sim.advance(ctrl.step(state, OperatorInput(state.t, axes)), DT)
+    (t0, p0, _), (t1, p1, q1) = samples[0], samples[-1]
+    v = (p1 - p0) / (t1 - t0)
+    radial = np.array([np.cos(q1), np.sin(q1)])
+    print(f"log end horizontal rate {v[:2] @ radial:.4f} m/s out (commanded 0.1), "
+          f"force {contact.max_force_n:.0f} N max, settles toward {0.8 * 1500:.0f} N")
+    assert v[:2] @ radial == pytest.approx(0.1, rel=0.02)
+    assert abs(v[0] * -radial[1] + v[1] * radial[0]) < 0.002  # no sideways drift
+    assert contact.max_force_n < 1500.0
+    f_end = contact.force(sim.t, sim.grapple)[2]
+    assert f_end == pytest.approx(0.8 * 1500.0, rel=0.03)

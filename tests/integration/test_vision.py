@@ -105,3 +105,22 @@ def test_zero_gain_disables_an_axis_and_lost_target_gives_no_rate(lab):
     cam.target = (tip[0] + 0.3, tip[1], tip[2] + 1.0)  # above the lens: out of view
     ctx.t = 1.0
     assert src.rate(ctx) == (0.0, 0.0, 0.0) and not src.visible
+
+
+def test_latency_beyond_the_delay_margin_does_not_converge(lab):
+    """Negative control: a delay loop ``e' = -K e(t - tau)`` is unstable for ``K tau > pi / 2``.
+
+    From the same start, 0.15 s latency converges; with 2 s (K tau = 2) the grapple still swings about the goal.
+    """
+    goal = (0.0, 0.0, HOVER)
+    q0 = _random_start(lab, np.random.default_rng(7), SimulatedCamera(TARGET))
+    outcomes = []
+    for latency in (0.15, 2.0):
+        cam = SimulatedCamera(TARGET, CameraParams(noise_m=0.01, latency_s=latency, max_age_s=3.0, seed=3))
+        sim = SimulatedCrane(lab, q0, SimParams(seed=3))
+        arrived = run_sources(lab, sim, [VisionSource(cam, goal, gains=(1.0, 1.0, 1.0))], 15.0)
+        outcomes.append((bool(arrived), _true_error(sim, cam, goal)))
+    print(f"vision latency 0.15 s: arrived {outcomes[0][0]}, final {outcomes[0][1] * 1000:.1f} mm; "
+          f"2 s: arrived {outcomes[1][0]}, final {outcomes[1][1] * 1000:.0f} mm")
+    assert outcomes[0][0] and outcomes[0][1] < 0.02
+    assert outcomes[1][1] > 0.05

@@ -18,6 +18,7 @@ from motionlib.model.frames import (
     PointFrame,
     mrf_jacobian,
     mrf_position,
+    slew_rate_for,
     standard_mrfs,
     tip_rate_for,
 )
@@ -174,3 +175,10 @@ def test_scene_frames_read_and_round_trip(tmp_path):
 def test_bad_frames_are_rejected_with_the_key(frames, needle):
     with pytest.raises(ModelFileError, match=needle.replace(".", r"\.")):
         Scene.from_dict(yaml.safe_load(yaml.safe_dump({"name": "f", "crane": "lab", "frames": frames})), "s.yaml")
+
+
+def test_mrf_on_the_slewing_axis_gets_no_slew():
+    """Eq. 1 is singular when the MRF is on the slewing axis: no slew rate, the tip takes the MRF's rate."""
+    tip, q1, off = (1.0, 0.0, 2.0), 0.0, (-1.0, 0.0, -0.5)
+    assert slew_rate_for(tip, q1, off, (0.0, 0.3, 0.0)) == 0.0
+    assert tip_rate_for(tip, q1, off, (0.1, 0.3, -0.2)) == (0.1, 0.3, -0.2)
