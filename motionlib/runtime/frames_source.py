@@ -47,6 +47,9 @@ class FrameSource(RateSource):
         The control reference frame (default the base frame).
     name : str, optional
         Default the wrapped source's name.
+
+    The wrapper has no gains of its own (its ``gains`` are 1); the wrapped source's gains and
+    ``enabled`` switch apply (``enabled`` is shared with it).
     """
 
     def __init__(self, inner: RateSource, mrf: PointFrame, crf: CommandFrame = BASE_CRF, name: str | None = None):
