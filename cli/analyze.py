@@ -14,11 +14,14 @@ from .output import emit_json
 @scene_option(required=False)
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
-def analyze(recording, crane_name, scene_file, as_json, plot_dir) -> None:
+@click.option("--replan", is_flag=True,
+              help="Also replan every recorded move along its path and freely, and print the saving (003 Paper I).")
+def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan) -> None:
     """Split RECORDING (CSV or run log, docs/recording-format.md) into the states of 003 Table 3.1.
 
     Prints the time distribution (n, median time per occurrence, share of the total) and how
-    many joint functions the operator moves at once (003 Figs. 3.3-3.4).
+    many joint functions the operator moves at once (003 Figs. 3.3-3.4); with --replan, the
+    recorded time of every move beside its time replanned along the operator's path and freely.
     """
     from motionlib import Crane, Scene
     from motionlib.analysis.work_analysis import analyze_recording
@@ -27,10 +30,16 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir) -> None:
     scene = Scene.load(scene_file, crane=crane) if scene_file else None
     result = analyze_recording(recording, crane=crane, scene=scene)
     report = result.to_dict()
+    replanned = None
+    if replan:
+        from motionlib.analysis.replan import replan_recording
+
+        replanned = replan_recording(result.recording, result.segmentation)
+        report["replan"] = replanned.to_dict()
     if plot_dir:
         from motionlib.viz.work_plots import plot_work
 
-        files = plot_work(plot_dir, result.recording, result.segmentation, result.usage, result.activity)
+        files = plot_work(plot_dir, result.recording, result.segmentation, result.usage, result.activity, replanned)
         report["plots"] = [str(p) for p in files]
     if as_json:
         emit_json(report)
@@ -49,5 +58,30 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir) -> None:
     click.echo("    k                 " + "".join(f"{k:>7d}" for k in range(5)))
     click.echo("    whole recording   " + "".join(f"{100 * v:6.1f}%" for v in u.overall))
     click.echo("    crane manipulation" + "".join(f"{100 * v:6.1f}%" for v in u.manipulation))
+    if replanned is not None:
+        _echo_replan(replanned)
     for path in report.get("plots", []):
         click.echo(f"  figure: {path}")
+
+
+def _echo_replan(report) -> None:
+    def cell(r) -> str:
+        return f"{r.duration_s:8.2f}" if r.status.value == "ok" else f"{r.status.value:>8}"
+
+    click.echo("  moves replanned (s): recorded, along the recorded path, free")
+    click.echo(f"    {'state':<6} {'t0':>7} {'recorded':>9} {'along':>8} {'free':>8}")
+    for m in report.motions:
+        click.echo(f"    {m.state:<6} {m.t0:7.1f} {m.recorded_s:9.2f} {cell(m.along)} {cell(m.free)}")
+    for which in ("along", "free"):
+        tot = report.totals(which)
+        if tot["n"]:
+            click.echo(f"    {which:<6}: {tot['n']} moves, recorded {tot['recorded_s']:.1f} s, replanned "
+                       f"{tot['replanned_s']:.1f} s, saving {tot['saving_s']:.1f} s "
+                       f"({100 * tot['saving_s'] / tot['recorded_s']:.0f} %)")
+    for m in report.motions:
+        for which in ("along", "free"):
+            r = getattr(m, which)
+            if r.status.value == "failed":
+                click.echo(f"    {m.state} at {m.t0:.1f} s, {which}: {r.reason}")
+    for note in report.notes:
+        click.echo(f"    note: {note}")

@@ -14,6 +14,10 @@ log_loading_experiment(config, out_dir) -> ExperimentReport
     000's log-loading experiment in simulation, from library to report (:mod:`motionlib.experiment`).
 write_view(path, output) -> ViewResult
     A self-contained 3D page of a plan, library or run log (:mod:`motionlib.viz`).
+analyze_recording(path) -> WorkAnalysis
+    Recorded crane work split into the states of 003 Table 3.1, with its statistics (:mod:`motionlib.analysis`).
+replan_recording(recording) -> ReplanReport
+    Every recorded move replanned along its path and freely (003 Paper I).
 
 The types users load: :class:`Crane` (``Crane.load("forwarder")``), :class:`Scene`
 (``Scene.load(path)``), :class:`LibrarySpec` (``LibrarySpec.load(path)``),
@@ -26,6 +30,7 @@ Subpackages follow the data flow; a lower layer never imports a higher one:
 ``motionlib.planning``  path, spline, telescope redundancy, timing, verification, planner
 ``motionlib.library``   library spec, parallel build, HDF5 store, selection
 ``motionlib.runtime``   controller, sources, mixer, simulated crane, closed loop, run log
+``motionlib.analysis``  recorded crane work: states, joint usage, replanned moves
 ``motionlib.viz``       figures and the 3D viewer
 ``motionlib.experiment`` the log-loading experiment
 =====================  ==========================================================
@@ -58,6 +63,8 @@ _EXPORTS: dict[str, str] = {
     "execute": "motionlib.runtime.execute",
     "log_loading_experiment": "motionlib.experiment.runner",
     "write_view": "motionlib.viz.viewer",
+    "analyze_recording": "motionlib.analysis.work_analysis",
+    "replan_recording": "motionlib.analysis.replan",
     # types users load or get back
     "Crane": "motionlib.model.kinematics",
     "Capsule": "motionlib.model.kinematics",
@@ -77,6 +84,8 @@ _EXPORTS: dict[str, str] = {
     "ExperimentConfig": "motionlib.experiment.runner",
     "ExperimentReport": "motionlib.experiment.runner",
     "ViewOptions": "motionlib.viz.viewer",
+    "WorkAnalysis": "motionlib.analysis.work_analysis",
+    "ReplanReport": "motionlib.analysis.replan",
 }
 
 __all__ = [
@@ -85,6 +94,8 @@ __all__ = [
     "execute",
     "log_loading_experiment",
     "write_view",
+    "analyze_recording",
+    "replan_recording",
     "Crane",
     "Capsule",
     "Scene",
@@ -103,6 +114,8 @@ __all__ = [
     "ExperimentConfig",
     "ExperimentReport",
     "ViewOptions",
+    "WorkAnalysis",
+    "ReplanReport",
     "ExecutionError",
     "InputError",
     "LibraryFileError",
@@ -114,6 +127,8 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
+    from .analysis.replan import ReplanReport, replan_recording
+    from .analysis.work_analysis import WorkAnalysis, analyze_recording
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library
     from .library.selection import SelectionResult

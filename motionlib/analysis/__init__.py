@@ -8,4 +8,8 @@ segmentation
     A recording split into the work-cycle states of 003 Table 3.1.
 work_stats
     Time distribution per state (003 Table 3.1) and simultaneous joint use (003 Figs. 3.3-3.4).
+work_analysis
+    ``analyze_recording``: the whole analysis of one recording (what ``motionlib analyze`` prints).
+replan
+    ``replan_recording``: every recorded move replanned along its path and freely (003 Paper I).
 """

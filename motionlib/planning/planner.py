@@ -20,6 +20,7 @@ Stages (each its own module, each returning a result with a status):
    tolerance) and for collisions at <= 1 cm tip spacing with the collision
    module. When samples between TOPPRA's grid points overshoot a limit, every
    profile is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
+   Redundancy and timing work on a grid of the path every ``path_grid_m`` (10 cm).
 
 :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
@@ -49,6 +50,7 @@ from .redundancy import (
     joint_path,
     optimise_telescope,
 )
+from .spline import TipSpline
 from .timing import TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
 from .verification import Verifier
@@ -66,7 +68,9 @@ class PlanStatus(Enum):
 
 
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
-TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400))
+TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 1), (0.97, 2), (0.94, 4), (0.9, 4))
+"""(safety factor on the limits, TOPPRA grid densification): the TOPPRA grid has at least
+densification x max(100, path grid points) points."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +99,10 @@ class PlanOptions:
         Sample period of the stored trajectory (s).
     verify_tip_spacing_m : float
         Largest tip motion (m) between two configurations of the collision re-check.
+    path_grid_m : float
+        Spacing (m) of the path grid on which the telescope profile gives the joint path that
+        the timing interpolates (a cubic spline in joint space): between grid points the tip
+        can leave the tip path, the more the more curved the path; a finer grid keeps it closer.
     redundancy : RedundancyOptions
     """
 
@@ -107,6 +115,7 @@ class PlanOptions:
     reach_margin_rad: float = 0.04
     dt_s: float = 1.0 / 200.0
     verify_tip_spacing_m: float = 0.01
+    path_grid_m: float = 0.1
     redundancy: RedundancyOptions = field(default_factory=RedundancyOptions)
 
 
@@ -275,7 +284,41 @@ class Planner:
         stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
         if path.status is not PathStatus.OK or path.spline is None:
             return fail(PlanStatus.PATH_FAILED, path.reason)
-        spline = path.spline
+        return self._along(start_q, goal_p, path.spline, stages)
+
+    def plan_along(self, start_q: Any, spline: TipSpline) -> PlanResult:
+        """Stages 2-4 on a given tip path: the telescope profile, the timing and the verification.
+
+        What :meth:`plan` does after its path stage, for a path from elsewhere (a recorded
+        operator's tip path, 003 Paper I). The path is not checked for clearance beforehand:
+        the dense verification reports where it touches an obstacle.
+
+        Parameters
+        ----------
+        start_q : array_like, shape (4,)
+            Start configuration (rad, rad, rad, m); its tip should be the path's start.
+        spline : TipSpline
+            The tip path (m, arc length).
+
+        Returns
+        -------
+        PlanResult
+            Its ``stages`` have no ``path`` entry; the goal is the path's end.
+        """
+        start_q = check_vector(start_q, 4, "start")
+        if not self.crane.within_limits(start_q):
+            return PlanResult(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside "
+                              "the joint limits", None, {}, {})
+        return self._along(start_q, np.asarray(spline(spline.length), dtype=float), spline, {})
+
+    def _along(
+        self, start_q: np.ndarray, goal_p: np.ndarray, spline: TipSpline, stages: dict[str, StageReport]
+    ) -> PlanResult:
+        """Stages 2-4 of :meth:`plan` on ``spline`` (see the module docstring)."""
+        crane, o = self.crane, self.options
+
+        def fail(status: PlanStatus, reason: str, baselines: dict[str, float | None] | None = None) -> PlanResult:
+            return PlanResult(status, reason, None, stages, baselines or {})
 
         # 2. Redundancy: the optimised profile and the two baselines, screened for the joint
         #    limits and arm clearance (a verified result, with fallbacks when none is clear).
@@ -284,7 +327,7 @@ class Planner:
         if red.status is not RedundancyStatus.OK or red.profile is None:
             stages["redundancy"] = StageReport(red.status.value, time.perf_counter() - t0, dict(red.diagnostics))
             return fail(PlanStatus.REDUNDANCY_FAILED, red.reason)
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
         p_grid = spline(s_grid)
         degree = o.redundancy.degree
         candidates = {
@@ -314,7 +357,8 @@ class Planner:
         #    a limit by more than the 1 % tolerance, all profiles are re-timed under a safety
         #    factor on a denser grid (baselines included, so the comparison stays fair).
         t_timing = t_verify = 0.0
-        for scale, min_grid in TIMING_ATTEMPTS:
+        for scale, densify in TIMING_ATTEMPTS:
+            min_grid = densify * max(100, s_grid.size)
             t0 = time.perf_counter()
             limits = limits_for(crane, scale)
             timings = {

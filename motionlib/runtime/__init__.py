@@ -34,4 +34,8 @@ metrics
     Smoothness (total jerk, 000 eq. 6), path deviation and the run summary.
 execute
     :func:`~.execute.execute`: one call that sets all of the above up and runs it.
+open_loop
+    Open-loop execution for machines without joint sensors, with trajectory modification (003 Paper II).
+gaze
+    Head orientation to gaze: the linear model, its calibration and the target estimate (003 section 5.3).
 """

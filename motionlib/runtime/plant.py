@@ -4,7 +4,12 @@ Joints (per joint ``i``, integrated in substeps of ``dt_sub_s``, default 1 kHz)
 ------------------------------------------------------------------------------
 commanded velocity ``u`` -> valve -> actual velocity ``v``:
 
-1. dead band: ``|u| < deadband_frac * qd_lim_i`` gives no flow (``u = 0``);
+1. dead band: ``|u| < deadband_frac * qd_lim_i`` gives no flow (``u = 0``); the valve's gain:
+   ``u <- u * valve_gain_i`` (per direction; 1 = the valve gives the velocity the crane model
+   says, i.e. a calibrated machine) and the load: a function moving against gravity (boom and
+   jib raising) loses ``load_speed_loss * payload_frac`` of its speed, one moving with gravity
+   gains it (``payload_frac``: the carried load as a fraction of the rated load, set with
+   :meth:`SimulatedCrane.set_payload`);
 2. optional flow noise: ``u <- u (1 + noise_frac * N(0, 1))``, one draw per joint and
    control period (seeded);
 3. direction-dependent saturation: ``qd_min_i <= u <= qd_max_i``;
@@ -65,6 +70,17 @@ class SimParams:
         Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)``.
     noise_frac : float
         Standard deviation of the multiplicative flow noise (0: none).
+    valve_gain_pos, valve_gain_neg : tuple of 4 float
+        Velocity delivered per commanded velocity, for positive and negative commands of each
+        joint: the machine's deviation from its calibration (1: calibrated). Assumption; a
+        valve's flow gain varies by several percent with oil temperature and wear.
+    load_speed_loss : float
+        Fraction of speed a raising boom or jib function loses with the rated load in the
+        grapple (and a lowering one gains). Assumption: the pressure compensators of a
+        load-sensing system keep it small but not zero.
+    payload_frac : float
+        Load in the grapple at the start, as a fraction of the rated load (0: empty); see
+        :meth:`SimulatedCrane.set_payload`.
     seed : int
         Seed of the noise.
     pendulum_length_m : float or None
@@ -79,6 +95,10 @@ class SimParams:
     accel_factor: float = param(1.5, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
     noise_frac: float = param(0.0, ge=0.0)
+    valve_gain_pos: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    valve_gain_neg: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
+    load_speed_loss: float = param(0.0, ge=0.0, lt=1.0)
+    payload_frac: float = param(0.0, ge=0.0, le=1.5)
     seed: int = 0
     pendulum_length_m: float | None = param(None, gt=0.0, optional=True)
     swing_damping_per_s: float = param(0.4, ge=0.0)
@@ -87,6 +107,10 @@ class SimParams:
     def __post_init__(self) -> None:
         check_params(self)
         check_int(self.seed, "seed")
+        for name in ("valve_gain_pos", "valve_gain_neg"):
+            gains = check_vector(getattr(self, name), 4, name)
+            if not np.all((gains > 0.2) & (gains < 5.0)):
+                raise InputError(f"{name}: expected 4 gains in (0.2, 5), got {gains.tolist()}")
 
 
 class SimulatedCrane:
@@ -145,6 +169,9 @@ class SimulatedCrane:
         speed = np.minimum(-crane.qd_min, crane.qd_max)
         self._deadband = tuple((prm.deadband_frac * speed).tolist())
         self._rng = random.Random(int(prm.seed))
+        self.payload_frac = float(prm.payload_frac)
+        self._gain_pos = tuple(float(g) for g in prm.valve_gain_pos)
+        self._gain_neg = tuple(float(g) for g in prm.valve_gain_neg)
         self._dur_cached = math.nan
         self._per_period: tuple = ()
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
@@ -193,6 +220,10 @@ class SimulatedCrane:
         self.grapple = tuple(g.tolist())
         self._grapple_prev = tuple((g - (v * h + (tip - tip_prev))).tolist())
 
+    def set_payload(self, fraction: float) -> None:
+        """The grapple now carries ``fraction`` of the rated load (0: empty)."""
+        self.payload_frac = float(check_scalar(fraction, "fraction", ge=0.0, le=1.5))
+
     @property
     def tip_velocity(self) -> tuple[float, float, float]:
         """Tip velocity (m/s) over the last substep (backward difference)."""
@@ -234,13 +265,18 @@ class SimulatedCrane:
         n, h, alpha, caps, grav_h2, damp = self._per_period
         db, vmin, vmax = self._deadband, self._v_min, self._v_max
         noise = prm.noise_frac
+        load = prm.load_speed_loss * self.payload_frac
         u = []
         for i in range(4):
             c = float(qd_cmd[i])
             if not math.isfinite(c) or -db[i] < c < db[i]:
                 c = 0.0
-            elif noise > 0.0:
-                c *= 1.0 + noise * self._rng.gauss(0.0, 1.0)
+            else:
+                c *= self._gain_pos[i] if c > 0.0 else self._gain_neg[i]
+                if load and i in (1, 2):  # boom and jib: raising (c > 0) against gravity
+                    c *= 1.0 - load if c > 0.0 else 1.0 + load
+                if noise > 0.0:
+                    c *= 1.0 + noise * self._rng.gauss(0.0, 1.0)
             if c > vmax[i]:
                 c = vmax[i]
             elif c < vmin[i]:

@@ -5,7 +5,9 @@
   active);
 * ``joint_usage.png`` (003 Fig. 3.4): the share of time with 0-4 joint functions moved at once,
   over the whole recording and over the crane-manipulation states;
-* ``tip_paths.png`` (003 Fig. 3.2): the tip's moves seen from above, coloured by state.
+* ``tip_paths.png`` (003 Fig. 3.2): the tip's moves seen from above, coloured by state;
+* ``replanned.png`` (with ``--replan``, after 003 Paper I): every move's recorded time beside
+  its time replanned along the recorded path and freely.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..analysis.recording import Recording
+from ..analysis.replan import ReplanReport, ReplanStatus
 from ..analysis.segmentation import Segmentation, WorkState
 from ..analysis.work_stats import JointUsage
 from .figures import new_figure, save_figure
@@ -29,16 +32,20 @@ JOINT_LABELS = ("slew", "boom", "jib", "telescope")
 
 
 def plot_work(
-    out_dir: str | Path, rec: Recording, seg: Segmentation, usage: JointUsage, activity: np.ndarray
+    out_dir: str | Path, rec: Recording, seg: Segmentation, usage: JointUsage, activity: np.ndarray,
+    replanned: ReplanReport | None = None,
 ) -> list[Path]:
-    """Write the three figures of a recording to ``out_dir``; returns their paths."""
+    """Write the figures of a recording to ``out_dir`` (``replanned.png`` with ``replanned``); returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    return [
+    files = [
         save_figure(states_figure(rec, seg, activity), out / "states.png"),
         save_figure(joint_usage_figure(usage), out / "joint_usage.png"),
         save_figure(tip_paths_figure(rec, seg), out / "tip_paths.png"),
     ]
+    if replanned is not None:
+        files.append(save_figure(replanned_figure(replanned), out / "replanned.png"))
+    return files
 
 
 def states_figure(rec: Recording, seg: Segmentation, activity: np.ndarray) -> Figure:
@@ -74,6 +81,26 @@ def joint_usage_figure(usage: JointUsage) -> Figure:
     ax.set_xticks(k)
     ax.set_xlabel("joint functions moved at once" + (" (sticks)" if usage.from_sticks else " (joint velocities)"))
     ax.set_ylabel("share of time (%)")
+    ax.legend()
+    ax.grid(alpha=0.3, axis="y")
+    fig.tight_layout()
+    return fig
+
+
+def replanned_figure(report: ReplanReport) -> Figure:
+    """Recorded, along-the-path and free replanned time of every move (s); a failed replanning has no bar."""
+    fig, ax = new_figure(figsize=(max(6.0, 0.8 * len(report.motions) + 2.0), 4))
+    k = np.arange(len(report.motions))
+    ax.bar(k - 0.27, [m.recorded_s for m in report.motions], width=0.27, label="recorded", color="#8c8c8c")
+    for dx, which, colour in ((0.0, "along", "#4c72b0"), (0.27, "free", "#55a868")):
+        rows = [(i, getattr(m, which)) for i, m in enumerate(report.motions)]
+        ok = [(i, r.duration_s) for i, r in rows if r.status is ReplanStatus.OK]
+        if ok:
+            ax.bar([i + dx for i, _ in ok], [d for _, d in ok], width=0.27, color=colour,
+                   label="replanned along the recorded path" if which == "along" else "replanned freely")
+    ax.set_xticks(k)
+    ax.set_xticklabels([f"{m.state}\n{m.t0:.0f} s" for m in report.motions])
+    ax.set_ylabel("move time (s)")
     ax.legend()
     ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()

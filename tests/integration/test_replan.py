@@ -1,0 +1,139 @@
+"""Recorded motions replanned (003 Paper I): path kept, never slower, totals add up; the shipped data set."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from motionlib_cli.main import cli
+
+from motionlib.analysis.recording import Recording, read_recording
+from motionlib.analysis.replan import ReplanStatus, path_deviation, replan_recording, smooth_path
+from motionlib.analysis.segmentation import Segment, Segmentation, SegmentationOptions, WorkState, segment_recording
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+from motionlib.planning.planner import PlanOptions, plan
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "data" / "recorded-work"
+
+
+def point_polyline_distance(p: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Exact distance (M,) of points p (M, 3) from the polyline poly (N, 3): projection on every segment."""
+    a, b = poly[:-1], poly[1:]
+    d = b - a
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    u = np.clip(np.einsum("mij,ij->mi", p[:, None, :] - a[None], d) / dd, 0.0, 1.0)
+    closest = a[None] + u[..., None] * d[None]
+    return np.min(np.linalg.norm(p[:, None, :] - closest, axis=2), axis=1)
+
+
+def test_path_deviation_against_exact_projection():
+    rng = np.random.default_rng(5)
+    poly = np.cumsum(rng.normal(0.0, 0.3, (40, 3)), axis=0)
+    pts = poly[rng.integers(0, 39, 200)] + rng.normal(0.0, 0.05, (200, 3))
+    exact = float(np.max(point_polyline_distance(pts, poly)))
+    assert abs(path_deviation(pts, poly) - exact) <= 1e-3  # the 2 mm resampling: within 1 mm
+
+
+def test_smooth_path_stays_near_the_points_and_keeps_the_ends():
+    rng = np.random.default_rng(1)
+    s = np.linspace(0.0, 3.0, 600)
+    clean = np.stack([np.cos(s), np.sin(s), 0.2 * s], axis=1) * 4.0
+    noisy = clean + rng.normal(0.0, 0.001, clean.shape)
+    out = smooth_path(noisy, 0.001, 0.02)
+    assert np.allclose(out[[0, -1]], noisy[[0, -1]])
+    assert np.max(point_polyline_distance(out, clean)) < 0.005
+    assert np.allclose(np.linalg.norm(np.diff(out, axis=0), axis=1), 0.02, rtol=0.1)
+
+
+@pytest.fixture(scope="module")
+def expert_recording() -> Recording:
+    return read_recording(DATA / "o1-m1.csv")
+
+
+@pytest.fixture(scope="module")
+def expert_replanned(expert_recording):
+    return replan_recording(expert_recording)
+
+
+@pytest.mark.slow
+def test_replanning_keeps_the_recorded_path_and_is_never_slower(expert_recording, expert_replanned):
+    rows = expert_replanned.motions
+    assert [m.state for m in rows] == ["S6", "S8"] * 3
+    along = [m for m in rows if m.along.status is ReplanStatus.OK]
+    assert len(along) >= 4, [m.along.reason for m in rows]
+    for m in along:
+        assert m.along.duration_s <= m.recorded_s
+        assert m.along.deviation_m <= 0.01
+    for m in rows:
+        assert m.free.status is ReplanStatus.OK, m.free.reason
+        assert m.free.duration_s <= m.recorded_s
+
+
+@pytest.mark.slow
+def test_path_kept_within_1cm_by_exact_distance(expert_recording):
+    """One move re-run by hand: the trajectory's tip against the recorded samples, exact projection."""
+    from motionlib.analysis.replan import ReplanOptions
+    from motionlib.planning.planner import Planner
+    from motionlib.planning.spline import TipSpline
+
+    rec = expert_recording
+    move = segment_recording(rec).moves[0]
+    o = ReplanOptions()
+    planner = Planner(rec.crane, rec.scene, PlanOptions(clearance_m=o.clearance_m, arm_clearance_m=o.clearance_m,
+                                                        path_grid_m=o.path_grid_m))
+    recorded = rec.tip[move.i0 : move.i1 + 1]
+    result = planner.plan_along(rec.q[move.i0], TipSpline.from_waypoints(
+        smooth_path(recorded, o.smoothing_m, o.waypoint_spacing_m)))
+    traj = result.raise_for_status().trajectory
+    tip = rec.crane.fk_batch(traj.q[::5])
+    assert float(np.max(point_polyline_distance(tip, recorded))) <= 0.01
+    assert np.allclose(traj.q[0], rec.q[move.i0], atol=0.02)
+
+
+@pytest.mark.slow
+def test_time_optimal_motion_replanned_finds_no_saving():
+    """A planned (time-optimal) motion recorded and replanned along its path takes the same time (within 3 %)."""
+    crane = Crane.load("forwarder")
+    scene = Scene.load(ROOT / "obstacles" / "forwarder-site.yaml", crane=crane)
+    traj = plan(crane, scene, "bunk-center", "pile-left", PlanOptions(seed=3)).raise_for_status().trajectory
+    step = slice(None, None, 4)  # 50 Hz, as recorded
+    rec = Recording(traj.t[step], traj.q[step], None, (), crane, scene, "planned")
+    n = rec.t.size - 1
+    seg = Segmentation([Segment(WorkState.S6, 0, n, float(rec.t[0]), float(rec.t[n]))], np.zeros(n + 1),
+                       SegmentationOptions(), False)
+    row = replan_recording(rec, seg).motions[0]
+    assert row.along.status is ReplanStatus.OK, row.along.reason
+    assert row.along.duration_s == pytest.approx(traj.info.duration_s, rel=0.03)
+    assert row.along.deviation_m <= 0.01
+
+
+@pytest.mark.slow
+def test_cli_totals_equal_the_sum_of_the_rows(expert_replanned):
+    result = CliRunner().invoke(cli, ["analyze", str(DATA / "o1-m1.csv"), "--replan", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)["replan"]
+    for which in ("along", "free"):
+        ok = [m for m in report["motions"] if m[which]["status"] == "ok"]
+        tot = report["totals"][which]
+        assert tot["n"] == len(ok)
+        assert tot["recorded_s"] == pytest.approx(math.fsum(m["recorded_s"] for m in ok), abs=1e-9)
+        assert tot["replanned_s"] == pytest.approx(math.fsum(m[which]["duration_s"] for m in ok), abs=1e-9)
+        assert tot["saving_s"] == pytest.approx(tot["recorded_s"] - tot["replanned_s"], abs=1e-9)
+    # the CLI ran the same computation as the API
+    assert report == json.loads(json.dumps(expert_replanned.to_dict()))
+
+
+def test_data_set_reads_and_segments_into_load_cycles():
+    files = sorted(DATA.glob("*.csv"))
+    assert len(files) == 4
+    for f in files:
+        rec = read_recording(f)
+        seg = segment_recording(rec)
+        assert [e.action for e in rec.events] == ["close", "open"] * 3
+        assert [s.state.value for s in seg.moves] == ["S6", "S8"] * 3
