@@ -128,9 +128,8 @@ class SimulatedCamera:
             return
         prm = self.params
         period = 1.0 / prm.frame_rate_hz
-        self._next_capture = t + period if self._next_capture == -math.inf else max(
-            self._next_capture + period, t
-        )
+        nxt = self._next_capture + period  # keep the frame clock
+        self._next_capture = nxt if nxt > t else t + period  # first frame, or calls fell behind
         lens = mrf_position(tip, q1, self.offset)
         d = (self.target[0] - lens[0], self.target[1] - lens[1], self.target[2] - lens[2])
         rot = lens_rotation(q1)

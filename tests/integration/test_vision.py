@@ -124,3 +124,28 @@ def test_latency_beyond_the_delay_margin_does_not_converge(lab):
           f"2 s: arrived {outcomes[1][0]}, final {outcomes[1][1] * 1000:.0f} mm")
     assert outcomes[0][0] and outcomes[0][1] < 0.02
     assert outcomes[1][1] > 0.05
+
+
+def test_camera_latency_frame_rate_field_of_view_and_noise():
+    """The camera model against its definition: delivery after the latency, frames per second, cone, noise std."""
+    prm = CameraParams(noise_m=0.02, latency_s=0.1, frame_rate_hz=10.0, fov_half_angle_rad=0.4, seed=5)
+    tip, q1 = (2.0, 0.0, 2.0), 0.0
+    cam = SimulatedCamera((2.5, 0.0, 0.0), prm)  # 0.5 m out, 2 m below: atan(0.25) = 0.245 rad < 0.4
+    frames, seen = [], []
+    for k in range(2000):  # 10 s at 200 Hz
+        t = k * DT
+        cam.capture(t, tip, q1)
+        f = cam.latest(t)
+        if f is not None and (not frames or f is not frames[-1]):
+            frames.append(f)
+            seen.append(t)
+    assert cam.captures == 100  # 10 frames/s for 10 s (t = 0 .. 9.9)
+    delay = np.array(seen) - [f.t_capture for f in frames]
+    assert len(frames) == 99 and np.all(delay >= 0.1 - 1e-12) and np.all(delay < 0.1 + DT)  # at the first step after
+    m = np.array([f.target_l for f in frames])
+    true = np.array([0.5, 0.0, 2.0])  # x_L along the heading, z_L down
+    # 99 deliveries: the sample mean is within 4 standard errors, the std within 25 % of 0.02 m
+    assert np.all(np.abs(m.mean(axis=0) - true) < 4 * 0.02 / math.sqrt(len(m)))
+    assert np.all(np.abs(m.std(axis=0, ddof=1) / 0.02 - 1.0) < 0.25)
+    assert cam.sees((0.39 * 2.0, 0.0, 2.0)) and not cam.sees((0.43 * 2.0, 0.0, 2.0))  # tan 0.4 = 0.423
+    assert not cam.sees((0.0, 0.0, -1.0)) and not cam.sees((0.0, 0.0, prm.range_max_m + 0.1))
