@@ -73,8 +73,9 @@ class GazeStudyResult:
         Per rule (:data:`RULES`), the fraction of trials whose selected trajectory serves the target.
     no_selection : ndarray, shape (L,)
         Fraction of trials with no trajectory within ``L1`` of the estimate (served by no rule).
-    mean_error_m : ndarray, shape (L,)
-        Mean distance (m) of the estimate from the intended target, over the trials with an estimate.
+    median_error_m : ndarray, shape (L,)
+        Median distance (m) of the estimate from the intended target, over the trials with an
+        estimate (the median: a gaze ray that grazes the look plane lands far away now and then).
     n_trials : int
     serve_m, L1 : float
     """
@@ -82,7 +83,7 @@ class GazeStudyResult:
     levels_deg: np.ndarray
     served: dict[str, np.ndarray]
     no_selection: np.ndarray
-    mean_error_m: np.ndarray
+    median_error_m: np.ndarray
     n_trials: int
     serve_m: float
     L1: float  # noqa: N815
@@ -96,6 +97,7 @@ def gaze_selection_study(
     *,
     n_trials: int = 200,
     n_calibration: int = 20,
+    n_operators: int = 20,
     serve_m: float = 0.4,
     L1: float = 1.0,  # noqa: N803 (003's symbol)
     sigma_fixed_m: float = 0.3,
@@ -121,6 +123,9 @@ def gaze_selection_study(
         Trials per level.
     n_calibration : int
         Calibration targets per simulated operator (drawn from ``targets``).
+    n_operators : int
+        Simulated operators per level, each calibrated on its own draw; the trials are shared
+        out between them (one calibration draw alone makes a level's result a lottery).
     serve_m : float
         A trajectory serves the target when its end is within this distance (m).
     L1, sigma_fixed_m, v_manual_m_s : float
@@ -139,20 +144,23 @@ def gaze_selection_study(
         raise InputError("levels_deg: expected positive noise levels (deg)")
     serve = check_scalar(serve_m, "serve_m", gt=0.0)
     l1 = check_scalar(L1, "L1", gt=0.0)
-    if n_trials < 1 or n_calibration < 4:
-        raise InputError("n_trials >= 1 and n_calibration >= 4 expected")
+    if n_trials < 1 or n_calibration < 4 or n_operators < 1:
+        raise InputError("n_trials >= 1, n_calibration >= 4 and n_operators >= 1 expected")
+    per_operator = max(1, n_trials // n_operators)
     base = operator or GazeOperator()
     rng = np.random.default_rng(seed)
     served = {rule: np.zeros(levels.size) for rule in RULES}
     no_sel = np.zeros(levels.size)
-    err = np.zeros(levels.size)
-    n_est = np.zeros(levels.size)
+    errors: list[list[float]] = [[] for _ in levels]
     for li, level in enumerate(levels):
         person = GazeOperator(base.A, base.b, float(np.radians(level)))
         looked = pts - np.array([0.0, 0.0, tip_above_m])
         cal_gaze = gaze_angles(e, looked[rng.integers(0, len(pts), n_calibration)])
         model = HeadGazeModel.calibrate(person.head_for(cal_gaze, rng), cal_gaze)
-        for _ in range(n_trials):
+        for trial in range(n_trials):
+            if trial and trial % per_operator == 0:  # the next simulated operator, calibrated anew
+                cal_gaze = gaze_angles(e, looked[rng.integers(0, len(pts), n_calibration)])
+                model = HeadGazeModel.calibrate(person.head_for(cal_gaze, rng), cal_gaze)
             k = rng.integers(0, len(pts))
             target = pts[k]
             head = person.head_for(gaze_angles(e, looked[k][None])[0], rng)[0]
@@ -161,8 +169,7 @@ def gaze_selection_study(
             except InputError:  # the estimated gaze does not come down to the pile: no target
                 no_sel[li] += 1.0 / n_trials
                 continue
-            err[li] += float(np.linalg.norm(est.p_est - target))
-            n_est[li] += 1
+            errors[li].append(float(np.linalg.norm(est.p_est - target)))
             picks = _selections(index, est.p_est, est.covariance, l1, sigma_fixed_m, v_manual_m_s)
             if not picks:
                 no_sel[li] += 1.0 / n_trials
@@ -170,7 +177,8 @@ def gaze_selection_study(
             for rule, row in picks.items():
                 if np.linalg.norm(index.end_p[row] - target) <= serve:
                     served[rule][li] += 1.0 / n_trials
-    return GazeStudyResult(levels, served, no_sel, err / np.maximum(n_est, 1), int(n_trials), serve, l1)
+    median = np.array([np.median(e) if e else np.nan for e in errors])
+    return GazeStudyResult(levels, served, no_sel, median, int(n_trials), serve, l1)
 
 
 def _selections(
