@@ -159,7 +159,8 @@ def _fig_table1(out: Path, an: Analysis, operators: list[str], modes: list[str])
     sim = np.array([[an.jerk.normalised.get((o, m), np.nan) for m in modes] for o in operators])
     paper = np.array([[PAPER_TABLE1[o][MODES.index(m)] for m in modes] for o in operators])
     finite = np.concatenate([sim[np.isfinite(sim)], paper.ravel()])
-    norm = LogNorm(vmin=max(1e-3, float(finite.min())), vmax=float(finite.max()))
+    vmin, vmax = max(1e-3, float(finite.min())), float(finite.max())
+    norm = LogNorm(vmin=vmin, vmax=vmax)
     fig, axes = plt.subplots(1, 2, figsize=(10, 0.6 * len(operators) + 2.2))
     what = "normalised by the experts' M1 mean" if an.jerk.reference is not None else "m^2/s^5 (not normalised)"
     for ax, data, title in ((axes[0], sim, f"simulation ({what})"), (axes[1], paper, "000 Table 1")):
@@ -171,7 +172,7 @@ def _fig_table1(out: Path, an: Analysis, operators: list[str], modes: list[str])
             for j in range(data.shape[1]):
                 if math.isfinite(data[i, j]):
                     ax.text(j, i, f"{data[i, j]:.2f}", ha="center", va="center", fontsize=8,
-                            color="w" if data[i, j] < np.sqrt(norm.vmin * norm.vmax) else "k")
+                            color="w" if data[i, j] < math.sqrt(vmin * vmax) else "k")
     fig.colorbar(im, ax=axes, shrink=0.8, label="total jerk per cycle (log scale)")
     fig.suptitle("Total jerk in loading cycles (000 Table 1, eq. 6)", fontsize=11)
     return save_figure(fig, out / "table1.png")
@@ -295,7 +296,7 @@ def _scene_outline(ax: Any, scene: Scene) -> None:
         ax.text(lo[0], hi[1] + 0.05, r.name, fontsize=7)
     for ob in scene.obstacles:
         rot = ob.rotation()
-        if ob.shape == "box":
+        if ob.shape == "box" and ob.size is not None:
             hx, hy = ob.size[0] / 2, ob.size[1] / 2
             corners = np.array([[-hx, -hy, 0], [hx, -hy, 0], [hx, hy, 0], [-hx, hy, 0]]) @ rot.T + np.asarray(ob.xyz)
             ax.add_patch(Polygon(corners[:, :2], closed=True, color="0.4", alpha=0.6))
@@ -311,7 +312,7 @@ def _scene_outline(ax: Any, scene: Scene) -> None:
 def _fig7(out: Path, result: Any, scene: Scene | None) -> Path | None:
     novices = [r for r in result.results if r.group == "novice" and r.path_t.size]
     pool = novices or [r for r in result.results if r.path_t.size]
-    by = {}
+    by: dict[str, Any] = {}
     for r in sorted(pool, key=lambda r: (r.operator, r.series)):  # the first novice by name, its first series
         by.setdefault(r.mode, r)
     shown = [m for m in ("M1", "M6") if m in by]

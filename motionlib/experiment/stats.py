@@ -289,9 +289,9 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     criterion = ("novices' mean normalised jerk lowest in M6: reproduced; M6 second lowest, or lowest for some "
                  "novices only: partly")
     if len(novice) == len(MODES):
-        order = sorted(novice, key=novice.get)
+        order = sorted(novice, key=lambda m: novice[m])
         per_op = [o for o in NOVICES if all((o, m) in jerk.normalised for m in MODES)]
-        lowest = [o for o in per_op if min(MODES, key=lambda m, o=o: jerk.normalised[(o, m)]) == "M6"]
+        lowest = [o for o in per_op if _lowest_mode(jerk.normalised, o) == "M6"]
         sim = ("novices' means: " + ", ".join(f"{m} {novice[m]:.2f}" for m in MODES)
                + f"; M6 lowest for {len(lowest)} of {len(per_op)} novices")
         if order[0] == "M6":
@@ -371,10 +371,10 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     expert = {m: g[("expert", m)] for m in MODES if ("expert", m) in g}
     if len(expert) == len(MODES):
         per_op = [o for o in EXPERTS if all((o, m) in jerk.normalised for m in MODES)]
-        lowest = [o for o in per_op if min(MODES, key=lambda m, o=o: jerk.normalised[(o, m)]) == "M1"]
+        lowest = [o for o in per_op if _lowest_mode(jerk.normalised, o) == "M1"]
         sim = ("experts' means: " + ", ".join(f"{m} {expert[m]:.2f}" for m in MODES)
                + f"; M1 lowest for {len(lowest)} of {len(per_op)} experts")
-        verdict = ("reproduced" if min(expert, key=expert.get) == "M1" else "partly" if lowest
+        verdict = ("reproduced" if min(expert, key=lambda m: expert[m]) == "M1" else "partly" if lowest
                    else "not reproduced")
         out.append(Finding(name, paper, criterion, sim, verdict))
     else:
@@ -456,3 +456,8 @@ def analyse(cycles: Sequence[Any], transitions: Sequence[Any]) -> Analysis:
             blend[m] = median(values) if values else math.nan
             speed[m] = median(t.peak_speed_before_m_s for t in in_mode)
     return Analysis(jerk, times, trans, findings(jerk, times, trans), other_ratios(times), samples, blend, speed)
+
+
+def _lowest_mode(normalised: dict[tuple[str, str], float], operator: str) -> str:
+    """The mode with the lowest normalised total jerk of ``operator``."""
+    return min(MODES, key=lambda m: normalised[(operator, m)])
