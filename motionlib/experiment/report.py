@@ -361,10 +361,11 @@ def _discussion(an: Analysis) -> list[str]:
         if math.isfinite(blend) and blend < 0.3:
             text += (": `c_a` falls as the operator's speed approaches `v_ref` (000 eq. 5) and the model operator "
                      "reaches its chosen speed within a few stick time constants, so the blend is almost as abrupt "
-                     "as a traded abort, and the controller's acceleration limit and the valve lag shape both alike")
-        text += (". The simulated crane has no structural or hydraulic oscillation for an abrupt switch to excite "
-                 "(000 Fig. 8 a shows such oscillations), and the filtered jerk also contains the time-optimal "
-                 "library trajectory's own acceleration switching.")
+                     "as a traded abort, and the machine (valve lag, relief valves, the joints' oil spring; no command "
+                     "ramp in this experiment) shapes both alike")
+        text += (". The second-order hydraulic joints and the grapple's pull ring after an abrupt change (000 "
+                 "Fig. 8 a shows such oscillations), but a blend and an abort this fast excite them alike, and the "
+                 "filtered jerk also contains the time-optimal library trajectory's own acceleration switching.")
         lines.append(text)
     e1, e6 = an.times.mean("expert", "M1"), an.times.mean("expert", "M6")
     n1, n6 = an.times.mean("novice", "M1"), an.times.mean("novice", "M6")
@@ -384,6 +385,15 @@ def _discussion(an: Analysis) -> list[str]:
             f"operation (one or two joints at a time, correcting against their own hand noise) accumulate the most "
             f"(novices M1 {_f(g[('novice', 'M1')])}); traded and shared Cartesian control differ in the transition "
             f"only, and the novices' cycle totals differ by {100 * diff:.0f} % between M5 and M6.")
+        auto = min(g[(grp, m)] for grp in ("expert", "novice") for m in ("M2", "M3", "M5", "M6") if (grp, m) in g)
+        if auto > g[("novice", "M1")]:
+            lines.append(
+                f"- **Automation is jerky here.** Every automated mode (lowest group mean {_f(auto)}) is jerkier than "
+                f"even the novices' manual joint operation: the automated motions themselves, not the transitions, "
+                f"dominate. A likely cause, not isolated in this run: the path tracker's command (000 eq. 3, the "
+                f"look-ahead direction and the speed profile) changes in steps, and without the command ramp (as "
+                f"000 ran its experiment) the steps reach the lightly damped hydraulic joints and the swinging "
+                f"grapple, which ring.")
     return lines
 
 
