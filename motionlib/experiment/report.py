@@ -47,6 +47,7 @@ from .stats import (
     TRANSITION_PARTLY,
     TRANSITION_REPRODUCED,
     Analysis,
+    mode_rank_correlation,
 )
 
 SUBTASK_LABELS = {"go_out": "go out", "grab": "grab", "go_back": "go back", "release": "release"}
@@ -449,7 +450,12 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
             pg = paper_group_means()
             rows.append([f"*{group}s*"] + [f"*{_f(an.jerk.groups.get((group, m), math.nan))} ({pg[(group, m)]:.2f})*"
                                            for m in modes])
-    lines += ["", _md_table(["operator", *modes], rows), "", "![Table 1](table1.png)"]
+    lines += ["", _md_table(["operator", *modes], rows)]
+    ranks = mode_rank_correlation(an.jerk.normalised)
+    if ranks:
+        lines += ["", "Rank correlation of each operator's six modes with 000 Table 1's row (Spearman rho / "
+                  "Kendall tau): " + ", ".join(f"{op} {r:.2f} / {t:.2f}" for op, (r, t) in ranks.items()) + "."]
+    lines += ["", "![Table 1](table1.png)"]
 
     # Figs. 9, 10
     lines += ["", "## Work-cycle times (000 Figs. 9 and 10)", "",

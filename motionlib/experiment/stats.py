@@ -461,3 +461,26 @@ def analyse(cycles: Sequence[Any], transitions: Sequence[Any]) -> Analysis:
 def _lowest_mode(normalised: dict[tuple[str, str], float], operator: str) -> str:
     """The mode with the lowest normalised total jerk of ``operator``."""
     return min(MODES, key=lambda m: normalised[(operator, m)])
+
+
+def mode_rank_correlation(normalised: dict[tuple[str, str], float]) -> dict[str, tuple[float, float]]:
+    """Per operator: rank correlation of the six modes' jerk with 000 Table 1's row (Spearman rho, Kendall tau).
+
+    Parameters
+    ----------
+    normalised : dict of (operator, mode) to float
+        Normalised mean total jerk per work cycle (:class:`JerkTable.normalised`).
+
+    Returns
+    -------
+    dict of str to (float, float)
+        Operators with all six modes and a Table 1 row: ``(rho, tau)`` (``scipy.stats``), each in [-1, 1].
+    """
+    from scipy.stats import kendalltau, spearmanr
+
+    out: dict[str, tuple[float, float]] = {}
+    for op, paper in PAPER_TABLE1.items():
+        if all((op, m) in normalised for m in MODES):
+            sim = [normalised[(op, m)] for m in MODES]
+            out[op] = (float(spearmanr(sim, paper)[0]), float(kendalltau(sim, paper)[0]))
+    return out
