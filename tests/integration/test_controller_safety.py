@@ -176,7 +176,9 @@ def test_stale_input_brings_the_crane_to_rest(moving, axes, mode):
         prev = cmd
         sim.advance(ctl.status.qd_cmd, DT)
     assert t_stale is not None
-    assert np.abs(sim.qd).max() < 1e-4  # the actuators have followed (first-order lag)
+    # the valves have closed and the joints' ringing has decayed (envelope exp(-zeta w t), ~0.2 s time constant)
+    assert np.abs(sim.joints.x).max() < 1e-6
+    assert np.abs(sim.qd).max() < 1e-3
 
 
 def test_stuck_stick_for_long_in_every_mode_keeps_off_the_end_stops():
