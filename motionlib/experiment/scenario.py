@@ -178,10 +178,10 @@ class Scenario:
             offset = (k - 0.5 * (n - 1)) * opts.release_spacing_m
             logs.append(Log(
                 name=ob.name,
-                center=tuple(float(v) for v in ob.xyz),
+                center=(float(ob.xyz[0]), float(ob.xyz[1]), float(ob.xyz[2])),
                 axis_xy=axis_xy,
                 area=area.name,
-                area_center=tuple(float(v) for v in area.center),
+                area_center=(float(area.center[0]), float(area.center[1]), float(area.center[2])),
                 grab_p=(x, y, opts.grab_height_m),
                 release_p=(cx + offset, cy, opts.release_height_m),
             ))
@@ -189,7 +189,7 @@ class Scenario:
         target_p = scene.point(opts.target_point)
         return cls(
             logs=tuple(logs),
-            target_center=tuple(float(v) for v in target.center),
+            target_center=(float(target.center[0]), float(target.center[1]), float(target.center[2])),
             target_lower=(float(target.lower[0]), float(target.lower[1])),
             target_upper=(float(target.upper[0]), float(target.upper[1])),
             out_end=tuple(scene.point(opts.fix_point).tolist()) if fixed else None,

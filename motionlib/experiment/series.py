@@ -8,8 +8,10 @@ works on, not obstacles to keep away from (the wall and the stakes are).
 
 :func:`run_series` runs one operator in one mode for one series: the crane starts at rest
 over the target area (the scenario's start configuration), a :class:`SharedController` in
-the mode (default parameters, obstacle guard on), the simulated crane
-(:class:`~motionlib.runtime.plant.SimulatedCrane`, default parameters) and a
+the mode (default parameters except, as 000 ran its experiment, no command ramp and no
+obstacle guard: :class:`RunOptions`), the simulated crane
+(:class:`~motionlib.runtime.plant.SimulatedCrane`, default parameters: second-order hydraulic
+joints and the shared pump) and a
 :class:`~motionlib.experiment.task.LoadingTask` run in
 :func:`~motionlib.runtime.loop.run_closed_loop` until every log is released and the tip has settled
 (or the time limit). The 200 Hz log is then reduced in the worker to
@@ -38,14 +40,14 @@ from ..library.selection import SelectionStatus
 from ..library.store import Library
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
-from ..runtime.control_types import Mode
+from ..runtime.control_types import ControllerParams, Mode
 from ..runtime.execute import ExecuteOptions, prepare_run
 from ..runtime.loop import run_closed_loop
 from ..runtime.runlog import RunLog
 from .measures import Signals
 from .panel import panel_operator
 from .scenario import Scenario, ScenarioOptions
-from .segment import SUBTASKS, segment_cycles
+from .segment import segment_cycles
 from .task import LoadingTask, TaskEvent
 
 TRANSITION_BEFORE_S = 1.0
@@ -235,12 +237,18 @@ class RunOptions:
     time_limit_s : float
         Longest simulated time of one series (s).
     guard : bool
-        Obstacle guard ``c_o`` on (as ``motionlib execute`` by default).
+        Obstacle guard ``c_o`` on. Off by default: 000 section 2.4 mixes with ``c_o = 1``
+        in its experiment (``motionlib execute`` has it on).
+    command_ramp : bool
+        The controller's command ramp (``ControllerParams.command_ramp``). Off by default, as
+        000 ran its experiment: an abrupt command is limited by the machine only
+        (``motionlib execute`` has it on).
     scenario : ScenarioOptions
     """
 
     time_limit_s: float = 900.0
-    guard: bool = True
+    guard: bool = False
+    command_ramp: bool = False
     scenario: ScenarioOptions = field(default_factory=ScenarioOptions)
 
 
@@ -264,7 +272,10 @@ class ExperimentContext:
         data = self.scene.to_dict()
         data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
         self.guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
-        self.execute_options = ExecuteOptions(time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard)
+        self.execute_options = ExecuteOptions(
+            time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard,
+            controller=ControllerParams(command_ramp=self.options.command_ramp),
+        )
 
 
 # ====================================================================== one series
@@ -367,7 +378,8 @@ def _measure(
         gave_up = any(e.name == "gave_up" and e.cycle == seg.cycle for e in events)
         result.cycles.append(CycleRecord(
             result.operator, result.group, result.mode, result.series, seg.cycle, scenario.logs[seg.cycle].name,
-            seg.t_start, seg.t_release, seg.cycle_time_s, *(durations[s] for s in SUBTASKS),
+            seg.t_start, seg.t_release, seg.cycle_time_s,
+            durations["go_out"], durations["grab"], durations["go_back"], durations["release"],
             smooth["total_jerk"], smooth["total_sq_acceleration"], smooth["peak_acceleration_m_s2"],
             smooth["peak_jerk_m_s3"], int(attempts["grab"]), int(attempts["release"]), gave_up,
             ends.get((seg.cycle, "go_out"), manual), ends.get((seg.cycle, "go_back"), manual),

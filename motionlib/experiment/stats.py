@@ -289,18 +289,12 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     criterion = ("novices' mean normalised jerk lowest in M6: reproduced; M6 second lowest, or lowest for some "
                  "novices only: partly")
     if len(novice) == len(MODES):
-        order = sorted(novice, key=novice.get)
+        order = sorted(novice, key=lambda m: novice[m])
         per_op = [o for o in NOVICES if all((o, m) in jerk.normalised for m in MODES)]
-        lowest = [o for o in per_op if min(MODES, key=lambda m, o=o: jerk.normalised[(o, m)]) == "M6"]
+        lowest = [o for o in per_op if _lowest_mode(jerk.normalised, o) == "M6"]
         sim = ("novices' means: " + ", ".join(f"{m} {novice[m]:.2f}" for m in MODES)
                + f"; M6 lowest for {len(lowest)} of {len(per_op)} novices")
-        if order[0] == "M6":
-            verdict = "reproduced"
-        elif order[1] == "M6" or lowest:
-            verdict = "partly"
-        else:
-            verdict = "not reproduced"
-        out.append(Finding(name, paper, criterion, sim, verdict))
+        out.append(Finding(name, paper, criterion, sim, _verdict(order[0] == "M6", order[1] == "M6" or bool(lowest))))
     else:
         out.append(Finding(name, paper, criterion, "needs novices in all six modes", NOT_EVALUATED))
 
@@ -316,13 +310,8 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
                  "both")
     if possible == 4:
         sim = f"{rank_ok}/4 among the 3 jerkiest, {above_ok}/4 jerkier than shared; " + "; ".join(notes)
-        if rank_ok == 4 and above_ok == 4:
-            verdict = "reproduced"
-        elif rank_ok == 4 or above_ok == 4 or (rank_ok >= 2 and above_ok >= 2):
-            verdict = "partly"
-        else:
-            verdict = "not reproduced"
-        out.append(Finding(name, paper, criterion, sim, verdict))
+        partly = rank_ok == 4 or above_ok == 4 or (rank_ok >= 2 and above_ok >= 2)
+        out.append(Finding(name, paper, criterion, sim, _verdict(rank_ok == 4 and above_ok == 4, partly)))
     else:
         out.append(Finding(name, paper, criterion, "needs both groups in all six modes", NOT_EVALUATED))
 
@@ -342,8 +331,7 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
         t2, t3 = transitions.get(("M2", "all")), transitions.get(("M3", "all"))
         if t2 is not None and t3 is not None and t2.n and t3.n and t3.median_peak_jerk_m_s3 > 0:
             sim += f"; joint operation M2 / M3 jerk ratio {t2.median_peak_jerk_m_s3 / t3.median_peak_jerk_m_s3:.2f}"
-        verdict = ("reproduced" if ratio >= TRANSITION_REPRODUCED else "partly" if ratio >= TRANSITION_PARTLY
-                   else "not reproduced")
+        verdict = _verdict(ratio >= TRANSITION_REPRODUCED, ratio >= TRANSITION_PARTLY)
         out.append(Finding(name, paper, criterion, sim, verdict))
     else:
         out.append(Finding(name, paper, criterion, "needs transitions in M5 and M6", NOT_EVALUATED))
@@ -357,8 +345,7 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     if math.isfinite(m1) and math.isfinite(m6) and m6 > 0:
         ratio = m1 / m6
         sim = f"novices' mean cycle time M1 {m1:.1f} s, M6 {m6:.1f} s: ratio {ratio:.2f}"
-        verdict = "reproduced" if lo <= ratio <= hi else "partly" if ratio > 1.3 else "not reproduced"
-        out.append(Finding(name, paper, criterion, sim, verdict))
+        out.append(Finding(name, paper, criterion, sim, _verdict(lo <= ratio <= hi, ratio > 1.3)))
     else:
         out.append(Finding(name, paper, criterion, "needs novices in M1 and M6", NOT_EVALUATED))
 
@@ -371,11 +358,10 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     expert = {m: g[("expert", m)] for m in MODES if ("expert", m) in g}
     if len(expert) == len(MODES):
         per_op = [o for o in EXPERTS if all((o, m) in jerk.normalised for m in MODES)]
-        lowest = [o for o in per_op if min(MODES, key=lambda m, o=o: jerk.normalised[(o, m)]) == "M1"]
+        lowest = [o for o in per_op if _lowest_mode(jerk.normalised, o) == "M1"]
         sim = ("experts' means: " + ", ".join(f"{m} {expert[m]:.2f}" for m in MODES)
                + f"; M1 lowest for {len(lowest)} of {len(per_op)} experts")
-        verdict = ("reproduced" if min(expert, key=expert.get) == "M1" else "partly" if lowest
-                   else "not reproduced")
+        verdict = _verdict(min(expert, key=lambda m: expert[m]) == "M1", bool(lowest))
         out.append(Finding(name, paper, criterion, sim, verdict))
     else:
         out.append(Finding(name, paper, criterion, "needs experts in all six modes", NOT_EVALUATED))
@@ -456,3 +442,36 @@ def analyse(cycles: Sequence[Any], transitions: Sequence[Any]) -> Analysis:
             blend[m] = median(values) if values else math.nan
             speed[m] = median(t.peak_speed_before_m_s for t in in_mode)
     return Analysis(jerk, times, trans, findings(jerk, times, trans), other_ratios(times), samples, blend, speed)
+
+
+def _verdict(reproduced: bool, partly: bool) -> str:
+    """The verdict of a finding from its two criteria (reproduced takes precedence)."""
+    return "reproduced" if reproduced else "partly" if partly else "not reproduced"
+
+
+def _lowest_mode(normalised: dict[tuple[str, str], float], operator: str) -> str:
+    """The mode with the lowest normalised total jerk of ``operator``."""
+    return min(MODES, key=lambda m: normalised[(operator, m)])
+
+
+def mode_rank_correlation(normalised: dict[tuple[str, str], float]) -> dict[str, tuple[float, float]]:
+    """Per operator: rank correlation of the six modes' jerk with 000 Table 1's row (Spearman rho, Kendall tau).
+
+    Parameters
+    ----------
+    normalised : dict of (operator, mode) to float
+        Normalised mean total jerk per work cycle (:class:`JerkTable.normalised`).
+
+    Returns
+    -------
+    dict of str to (float, float)
+        Operators with all six modes and a Table 1 row: ``(rho, tau)`` (``scipy.stats``), each in [-1, 1].
+    """
+    from scipy.stats import kendalltau, spearmanr
+
+    out: dict[str, tuple[float, float]] = {}
+    for op, paper in PAPER_TABLE1.items():
+        if all((op, m) in normalised for m in MODES):
+            sim = [normalised[(op, m)] for m in MODES]
+            out[op] = (float(spearmanr(sim, paper)[0]), float(kendalltau(sim, paper)[0]))
+    return out

@@ -136,8 +136,11 @@ class LoadingTask:
             self._event(t, "cycle_start", self._log.name)
         phase = self._phase
         if phase == "hands":
-            inp = self._op.input(obs)
-            if self._op.done(obs) and not self.controller.automation_active:
+            op = self._op
+            if op is None:
+                raise RuntimeError("LoadingTask: hands phase without an operator model")
+            inp = op.input(obs)
+            if op.done(obs) and not self.controller.automation_active:
                 self._begin_dwell(t)
             return inp
         if phase == "wait" and t >= self._t_next:

@@ -46,6 +46,8 @@ PLAUSIBLE: dict[str, Plausible] = {
     "pump_speed": Plausible(0.01, 1e3, 1e-3, 1e9, "rad/s or m/s"),  # pump_flow / displacement of each joint
     "radius": Plausible(0.005, 2.0, 1e-4, 100.0, "m"),  # link capsules, grapple
     "grapple_length": Plausible(0.05, 5.0, 1e-4, 100.0, "m"),
+    "joint_inertia": Plausible(1.0, 1e6, 1e-3, 1e9, "kg m^2 or kg"),
+    "load_mass": Plausible(1.0, 1e4, 1e-3, 1e6, "kg"),
     "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
     "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
 }
@@ -74,7 +76,9 @@ class CraneModel:
     Lengths in m, angles in rad. ``displacement`` is the oil volume per unit of
     joint motion (m^3/rad, m^3/m), in joint order; with ``pump_flow`` (m^3/s) it
     defines the shared-pump flow limit. Both are ``None`` when the file has no
-    ``hydraulics`` section.
+    ``hydraulics`` section. ``joint_inertia`` (kg m^2 per rotary joint, kg for the
+    telescope) and ``load_mass`` (kg, the grapple and its load on the pendulum rod) are the
+    simulated crane's dynamics, ``None`` without a ``dynamics`` section.
     """
 
     name: str
@@ -96,16 +100,21 @@ class CraneModel:
     log_length: float
     log_diameter: float
     plausibility: str = "strict"
+    joint_inertia: tuple[float, ...] | None = None
+    load_mass: float | None = None
 
     def to_dict(self) -> dict:
         """Plain-data form (JSON/YAML serialisable), as embedded in plan and library files.
 
-        ``plausibility`` is left out when it is ``strict`` (so the digest of a strict model
-        does not depend on the key's existence).
+        ``plausibility`` is left out when it is ``strict`` and the dynamics when there are
+        none (so the digest of a model does not depend on the keys' existence).
         """
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
+        for key in ("joint_inertia", "load_mass"):
+            if out[key] is None:
+                del out[key]
         return out
 
     @classmethod
@@ -121,8 +130,9 @@ class CraneModel:
         """
         data = dict(record)
         data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
-        if data.get("displacement") is not None:
-            data["displacement"] = tuple(data["displacement"])
+        for key in ("displacement", "joint_inertia"):
+            if data.get(key) is not None:
+                data[key] = tuple(data[key])
         model = cls(**data)
         if crane_model_from_dict(model.to_file_dict(), "<embedded crane model>") != model:
             raise ModelFileError("<embedded crane model>: joint names or types differ from a crane file's")
@@ -147,6 +157,9 @@ class CraneModel:
         out["geometry"] = {k: getattr(self, k) for k in (
             "column_radius", "boom_radius", "jib_radius", "telescope_radius", "grapple_length", "grapple_radius",
             "log_length", "log_diameter")}
+        if self.joint_inertia is not None and self.load_mass is not None:
+            out["dynamics"] = {"joint_inertia": dict(zip(JOINT_NAMES, self.joint_inertia, strict=True)),
+                               "load_mass": self.load_mass}
         return out
 
     @property
@@ -242,6 +255,14 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
+    joint_inertia = load_mass = None
+    if top.has("dynamics"):
+        dyn = top.section("dynamics")
+        isec = dyn.section("joint_inertia")
+        joint_inertia = tuple(isec.number(n, gt=0, plausible=r["joint_inertia"]) for n in JOINT_NAMES)
+        isec.done()
+        load_mass = dyn.number("load_mass", gt=0, plausible=r["load_mass"])
+        dyn.done()
     top.done()
 
     return CraneModel(
@@ -260,6 +281,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         log_length=log_length,
         log_diameter=log_diameter,
         plausibility="relaxed" if relaxed else "strict",
+        joint_inertia=joint_inertia,
+        load_mass=load_mass,
         **radii,
     )
 

@@ -25,7 +25,11 @@ resolved_rate
 operators
     Simulated operators: passive, scripted (CSV), novice and expert models.
 plant
-    :class:`~.plant.SimulatedCrane`: hydraulic joints and the swinging grapple.
+    :class:`~.plant.SimulatedCrane`: hydraulic joints, end stops and the swinging grapple.
+hydraulics
+    The joint actuators: valve lag, oil compliance (second order), relief bound (000 section 2.1).
+pump
+    Flow sharing of the one load-sensing pump between the joints.
 loop
     :func:`~.loop.run_closed_loop`: controller + plant + operator at the control rate.
 runlog

@@ -194,7 +194,17 @@ class ControllerParams:
         Braking deceleration before a position limit as a fraction of ``qdd_max``.
     lag_s : float
         Look-ahead (s) of the position-limit braking: the joint's position is predicted this far
-        ahead with its measured velocity (the valve lag of the actuators).
+        ahead with its measured velocity. 0.15 s: the plant's valve lag and oil-compliance lag
+        (``tau_v + 2 zeta / omega`` = 0.085 s, :class:`~motionlib.runtime.plant.SimParams`) with
+        room for the second-order ringing and the load's reaction (with the margin of 2 % of the
+        range, checked by the hypothesis safety tests).
+    command_ramp : bool
+        Safety option (on by default, as in ``motionlib execute``): the joint velocity command
+        changes by at most ``qdd_max * dt_s`` per step (the crane model's planning acceleration,
+        scaled uniformly over the joints), so an abrupt stick or abort becomes a ramp. Off, the
+        command may step and only the machine limits it (valve lag, flow saturation, pump,
+        relief valves: :mod:`motionlib.runtime.plant`); 000's experiment ran without such a ramp.
+        Stale input and a bad state then command 0 at once.
     """
 
     dt_s: float = param(0.005, gt=0.0)
@@ -208,12 +218,15 @@ class ControllerParams:
     operator_weight_lower: float = param(0.1, gt=0.0)
     operator_activity_axis: float = param(0.2, gt=0.0)
     centering_gain_per_s: float = param(0.0, ge=0.0)
-    limit_margin_frac: float = param(0.01, ge=0.0)
+    limit_margin_frac: float = param(0.02, ge=0.0)
     brake_decel_frac: float = param(0.5, gt=0.0, le=1.0)
-    lag_s: float = param(0.05, ge=0.0)
+    lag_s: float = param(0.15, ge=0.0)
+    command_ramp: bool = True
 
     def __post_init__(self) -> None:
         check_params(self)
+        if not isinstance(self.command_ramp, bool):
+            raise InputError(f"command_ramp: expected true or false, got {self.command_ramp!r}")
         if self.weights is not None:
             w = check_vector(self.weights, 4, "weights")
             if not np.all(w > 0.0):

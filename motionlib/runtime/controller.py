@@ -30,8 +30,9 @@ states and joystick samples. One step:
 5. **Limits**: the target is scaled uniformly (direction kept) into the direction-dependent
    velocity limits; each joint is bounded by its braking curve ``sqrt(2 a_b d)`` before its
    position limit (``d`` the distance to ``limit - margin``, predicted ``lag_s`` ahead,
-   ``a_b = brake_decel_frac * qdd_max``); the change from the previous command is scaled
-   uniformly so that no joint exceeds ``qdd_max``; a joint over its braking curve then
+   ``a_b = brake_decel_frac * qdd_max``); with the command ramp (``ControllerParams.command_ramp``,
+   a safety option, on by default) the change from the previous command is scaled
+   uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
    brakes at up to ``qdd_max`` on its own. The command is always finite.
 
 Flags and events are in :attr:`SharedController.status` and :attr:`SharedController.events`.
@@ -128,7 +129,9 @@ class SharedController:
         self._q_hi = tuple((crane.q_max - margin).tolist())
         self._v_lo = tuple(crane.qd_min.tolist())
         self._v_hi = tuple(crane.qd_max.tolist())
-        self._dv_cap = tuple((crane.qdd_max * prm.dt_s).tolist())  # largest change of the command per step
+        # largest change of the command per step: the command ramp (a safety option), or none
+        dv_cap = crane.qdd_max * prm.dt_s if prm.command_ramp else np.full(4, math.inf)
+        self._dv_cap = tuple(dv_cap.tolist())
         self._two_a_brake = tuple(two_ab.tolist())
         self._far_hi = tuple((crane.qd_max**2 / two_ab).tolist())  # beyond: the braking curve does not bind
         self._far_lo = tuple((crane.qd_min**2 / two_ab).tolist())
@@ -346,16 +349,18 @@ class SharedController:
         except TypeError:
             stale = True
         flags = 0
-        axes = inputs.axes
+        raw = inputs.axes
         try:  # fast path: a tuple of 4 numbers within [-1, 1] (NaN fails the comparisons)
-            a0, a1, a2, a3 = axes
-            ok = type(axes) is tuple and -1.0 <= a0 <= 1.0 and -1.0 <= a1 <= 1.0 and -1.0 <= a2 <= 1.0 and (
+            a0, a1, a2, a3 = raw
+            ok = type(raw) is tuple and -1.0 <= a0 <= 1.0 and -1.0 <= a1 <= 1.0 and -1.0 <= a2 <= 1.0 and (
                 -1.0 <= a3 <= 1.0
             )
         except (TypeError, ValueError):
             ok = False
-        if not ok:
-            axes, flags = _sanitize_axes(axes)
+        if ok:
+            axes: Vec4 = (a0, a1, a2, a3)
+        else:
+            axes, flags = _sanitize_axes(raw)
         if stale:
             return _ZERO4, False, flags | _STALE, True
         try:
@@ -371,7 +376,7 @@ class SharedController:
 
         # operator sources: p_o (Cartesian) and qd_o (joint operation)
         po_x = po_y = po_z = 0.0
-        qo = None
+        qo: Vec4 | None = None
         for src in self._operator_sources:
             if not src.enabled:
                 continue
@@ -381,7 +386,7 @@ class SharedController:
                 po_y += r[1]
                 po_z += r[2]
             elif qo is None:
-                qo = r
+                qo = (r[0], r[1], r[2], r[3])
             else:
                 qo = (qo[0] + r[0], qo[1] + r[1], qo[2] + r[2], qo[3] + r[3])
         if qo is not None:  # joint operation: p_o = J qd_o (000 eq. 1)
@@ -411,6 +416,8 @@ class SharedController:
                     za = zr if za is None else (za[0] + zr[0], za[1] + zr[1], za[2] + zr[2], za[3] + zr[3])
             pa = (pa_x, pa_y, pa_z)
             motion = self._motion
+            if motion is None:  # (an active automation always has its source)
+                raise RuntimeError("automation active without a motion source")
             st.s_p, st.deviation_m = motion.s_p, motion.deviation_m
             if motion.arrived(ctx):
                 self._end_motion(ctx.t, "arrival", f"{motion.dist_end_m * 1000:.1f} mm from the end point")
@@ -430,6 +437,8 @@ class SharedController:
         elif auto:  # shared
             st.authority = _SHARED
             motion = self._motion
+            if motion is None:
+                raise RuntimeError("automation active without a motion source")
             c_a = self.mixer.update(ctx.dt, speed_o, motion.deviation_m, motion.dist_end_m)
             if self.mixer.handed_over:
                 self._end_motion(ctx.t, "handover", f"t_o {self.mixer.t_o:.2f} s in a weak zone")
@@ -545,12 +554,13 @@ class SharedController:
         # 2. braking curves before the position limits, per joint: |v| <= sqrt(2 a_b d); they only bind
         #    within v_lim^2 / (2 a_b) of a limit (the predicted position counts: lag x measured velocity)
         lag = self._lag
-        ub = lb = None
+        ub: list[float] = []  # the braking curves' bounds, filled when a joint is near a limit
+        lb: list[float] = []
         for i, (qi, vi, near_lo, near_hi) in enumerate(zip(q, qd_meas, self._near_lo, self._near_hi, strict=True)):
             qp = qi + lag * vi
             if near_lo < qp < near_hi:
                 continue
-            if ub is None:
+            if not ub:
                 ub, lb = list(v_hi), list(v_lo)
             two_ab = self._two_a_brake[i]
             d = self._q_hi[i] - qp
@@ -582,7 +592,7 @@ class SharedController:
             flags |= _ACC
             t = [pv + ka * (v - pv) for v, pv in zip(t, prev, strict=True)]
             # 4. a joint over its braking curve brakes on its own, at up to qdd_max
-            if ub is not None:
+            if ub:
                 for i in range(4):
                     if t[i] > ub[i]:
                         t[i] = max(ub[i], prev[i] - self._dv_cap[i])

@@ -117,7 +117,9 @@ def run_closed_loop(
     for steps in range(1, n_max + 1):  # noqa: B007 (steps is reported)
         state = sim.state()
         vx, vy, vz = sim.tip_velocity
-        obs.t, obs.q, obs.qd, obs.p, obs.v = state.t, state.q, state.qd, sim.tip, (vx, vy, vz)
+        q, qd = sim.q, sim.qd
+        obs.t, obs.p, obs.v = state.t, sim.tip, (vx, vy, vz)
+        obs.q, obs.qd = (q[0], q[1], q[2], q[3]), (qd[0], qd[1], qd[2], qd[3])
         obs.automation_active = controller.automation_active
         obs.motion_end = controller.motion_end_p
         inp = operator.input(obs)

@@ -236,6 +236,8 @@ class ObstacleGuard:
 
     def _movement_bound(self, q: tuple[float, ...]) -> float:
         qc, lv = self._q_cache, self._levers
+        if qc is None:  # no cached distance: nothing is known about the movement since
+            return math.inf
         return (lv[0] * abs(q[0] - qc[0]) + lv[1] * abs(q[1] - qc[1]) + lv[2] * abs(q[2] - qc[2])
                 + lv[3] * abs(q[3] - qc[3]))
 

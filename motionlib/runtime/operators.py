@@ -445,7 +445,10 @@ class SimulatedOperator:
         peak = float(np.max(np.abs(best) / self._speed))
         if peak > 1.0:  # a human cannot push past full deflection: scale all joints alike
             best /= peak
-        return self.joystick.axes_for(tuple(best.tolist()))
+        if not isinstance(self.joystick, JointJoystick):
+            raise InputError(f"joint operation needs a JointJoystick, got {type(self.joystick).__name__}")
+        b = best.tolist()
+        return self.joystick.axes_for((b[0], b[1], b[2], b[3]))
 
     def input(self, obs: Observation) -> OperatorInput:
         prm = self.params

@@ -1,8 +1,8 @@
 """The simulated hydraulic crane (the plant) with a swinging grapple.
 
-Joints (per joint ``i``, integrated in substeps of ``dt_sub_s``, default 1 kHz)
-------------------------------------------------------------------------------
-commanded velocity ``u`` -> valve -> actual velocity ``v``:
+Joints (integrated in substeps of ``dt_sub_s``, default 1 kHz)
+--------------------------------------------------------------
+The controller's joint velocity command ``u`` is held for a control period. Per joint ``i``:
 
 1. dead band: ``|u| < deadband_frac * qd_lim_i`` gives no flow (``u = 0``); the valve's gain:
    ``u <- u * valve_gain_i`` (per direction; 1 = the valve gives the velocity the crane model
@@ -12,13 +12,21 @@ commanded velocity ``u`` -> valve -> actual velocity ``v``:
    :meth:`SimulatedCrane.set_payload`);
 2. optional flow noise: ``u <- u (1 + noise_frac * N(0, 1))``, one draw per joint and
    control period (seeded);
-3. direction-dependent saturation: ``qd_min_i <= u <= qd_max_i``;
-4. first-order lag ``tau dv/dt = u - v``, integrated exactly over a substep for constant ``u``
-   (``v += (u - v)(1 - exp(-h / tau))``) ...
-5. ... with the change limited to ``accel_factor * qdd_max_i * h`` (the actuator's
-   acceleration limit);
-6. position by the trapezoidal rule; end-of-stroke hard stops: ``q`` is clamped to
-   ``[q_min, q_max]`` and the velocity into the stop is zeroed (counted in ``hard_stop_hits``).
+3. direction-dependent flow saturation: ``qd_min_i <= u <= qd_max_i`` (the valve's largest
+   flow in each direction, divided by the joint's displacement);
+4. the joint actuators of :mod:`motionlib.runtime.hydraulics`: valve spool lag, the shared
+   pump's flow divided between the joints (:mod:`motionlib.runtime.pump`, when
+   ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
+   response (``natural_freq_hz``, ``damping_ratio``) with the grapple's reaction as a load, and
+   the relief valves' acceleration bound ``accel_factor * qdd_max_i``; ``model="first_order"``
+   is the fast option without spool state, compliance and reaction;
+5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity into the
+   stop is zeroed (counted in ``hard_stop_hits``).
+
+The machine's limits are physical here: the flow into every joint never exceeds its
+saturation and the sum never exceeds the pump (``peak_pump_ratio`` <= 1); the joint
+*velocity* of the second-order model can overshoot the flow's speed transiently (the oil
+spring gives back what it stored), by at most the step response's overshoot.
 
 Grapple (000 section 3.1: a passive two-axis joint lets it swing)
 -----------------------------------------------------------------
@@ -32,6 +40,12 @@ damping ``c`` (1/s) acts on the velocity relative to the tip: small swings decay
 ``exp(-c t / 2)`` with period ``2 pi sqrt(L / g)``. The swing angle is the angle of the rod
 from the vertical.
 
+Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_grapple)`` (N, ``m`` =
+``load_mass_kg``); joint ``i`` feels ``f_i = (J^T F)_i / I_i`` (``I_i`` = ``joint_inertia[i]``,
+``J`` the tip Jacobian at the start of the control period), the load term of
+:class:`~motionlib.runtime.hydraulics.HydraulicJoints`.
+
+Parameters and their sources: :class:`SimParams`.
 """
 
 from __future__ import annotations
@@ -49,27 +63,50 @@ from ..errors import InputError
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
 from .control_types import CraneState
+from .hydraulics import HydraulicJoints
 
 GRAVITY_M_S2 = 9.81
 
 
+MODELS = ("second_order", "first_order")
+
+
 @dataclass(frozen=True)
 class SimParams:
-    """Parameters of :class:`SimulatedCrane` (all assumptions; the papers give no valve data).
+    """Parameters of :class:`SimulatedCrane`; each names its source or says "assumption".
+
+    They were chosen before the experiment was re-run with this plant (docs/runtime.md).
 
     Attributes
     ----------
+    model : str
+        ``"second_order"`` (valve lag, oil compliance, reaction; default) or ``"first_order"``
+        (velocity lag only; faster). 000 section 2.1: the lab crane's joints are identified
+        as second-order systems under their joint controllers.
     dt_sub_s : float
-        Integration substep (s); 1 kHz, finer than the 200 Hz control rate.
+        Integration substep (s); 1 kHz, finer than the 200 Hz control rate (000 section 3.4)
+        and than the actuators' time scales. Numerical choice.
     tau_s : float
-        Valve/actuator first-order lag time constant (s).
+        Valve spool time constant ``tau_v`` (s); the first-order option's velocity lag.
+        Assumption: proportional valves of mobile hydraulics settle in 0.1-0.2 s (about 3-4 time constants).
+    natural_freq_hz : float
+        Closed-loop natural frequency of each joint's velocity response (Hz), from the oil
+        compliance (:func:`motionlib.runtime.hydraulics.natural_frequency_rad_s`). Assumption:
+        2.5 Hz, e.g. the lab boom with an effective bulk modulus of 7e8 Pa (Merritt 1967's
+        range for oil with hoses), its 1.4e-3 m^3/rad displacement, 0.01 m^3 of oil under
+        compression and 2000 kg m^2 give 2.6 Hz; 000 section 4.1 puts the arm's undesired
+        oscillations between 10 ms and 0.5 s.
+    damping_ratio : float
+        Damping ratio ``zeta`` of that response. Assumption: hydraulic drives are lightly
+        damped (Merritt 1967: 0.1-0.2 for the open loop); the joint controller adds damping; 0.35.
     accel_factor : float
-        Actuator acceleration limit as a multiple of the crane model's ``qdd_max`` (the
-        planning limit, which the controller keeps).
+        Relief-valve acceleration bound of each joint as a multiple of the crane model's
+        ``qdd_max`` (the planning limit). Assumption: 4; 000 Fig. 8a shows tip accelerations
+        of ~10 m/s^2 on the lab crane, several times what its planned motions use.
     deadband_frac : float
-        Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)``.
+        Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)``. Assumption.
     noise_frac : float
-        Standard deviation of the multiplicative flow noise (0: none).
+        Standard deviation of the multiplicative flow noise (0: none). Assumption.
     valve_gain_pos, valve_gain_neg : tuple of 4 float
         Velocity delivered per commanded velocity, for positive and negative commands of each
         joint: the machine's deviation from its calibration (1: calibrated). Assumption; a
@@ -83,16 +120,29 @@ class SimParams:
         :meth:`SimulatedCrane.set_payload`.
     seed : int
         Seed of the noise.
+    pump_sharing : bool
+        Share the pump's flow (:mod:`motionlib.runtime.pump`) when the crane file gives
+        ``hydraulics`` (003 section 4.3: the joints share one pump).
+    load_mass_kg : float or None
+        Mass of the grapple (and log) on the rod (kg), whose reaction acts on the tip. None:
+        the crane file's ``dynamics.load_mass`` (its source is given there), or no reaction
+        when the file has no ``dynamics`` section.
+    joint_inertia : tuple of 4 float or None
+        Inertia each joint moves (kg m^2; kg for the telescope), constant. None: the crane
+        file's ``dynamics.joint_inertia``.
     pendulum_length_m : float or None
         Grapple pendulum length (m); None: the crane model's ``grapple_length``.
     swing_damping_per_s : float
-        Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``.
+        Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``. Assumption.
     gravity_m_s2 : float
     """
 
+    model: str = "second_order"
     dt_sub_s: float = param(0.001, gt=0.0)
-    tau_s: float = param(0.05, gt=0.0)
-    accel_factor: float = param(1.5, gt=0.0)
+    tau_s: float = param(0.04, gt=0.0)
+    natural_freq_hz: float = param(2.5, gt=0.0, le=100.0)
+    damping_ratio: float = param(0.35, gt=0.0, le=5.0)
+    accel_factor: float = param(4.0, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
     noise_frac: float = param(0.0, ge=0.0)
     valve_gain_pos: tuple[float, float, float, float] = (1.0, 1.0, 1.0, 1.0)
@@ -100,6 +150,9 @@ class SimParams:
     load_speed_loss: float = param(0.0, ge=0.0, lt=1.0)
     payload_frac: float = param(0.0, ge=0.0, le=1.5)
     seed: int = 0
+    pump_sharing: bool = True
+    load_mass_kg: float | None = param(None, ge=0.0, optional=True)
+    joint_inertia: tuple[float, float, float, float] | None = None
     pendulum_length_m: float | None = param(None, gt=0.0, optional=True)
     swing_damping_per_s: float = param(0.4, ge=0.0)
     gravity_m_s2: float = param(GRAVITY_M_S2, gt=0.0)
@@ -111,6 +164,14 @@ class SimParams:
             gains = check_vector(getattr(self, name), 4, name)
             if not np.all((gains > 0.2) & (gains < 5.0)):
                 raise InputError(f"{name}: expected 4 gains in (0.2, 5), got {gains.tolist()}")
+        if self.model not in MODELS:
+            raise InputError(f"model: expected one of {MODELS}, got {self.model!r}")
+        if not isinstance(self.pump_sharing, bool):
+            raise InputError(f"pump_sharing: expected true or false, got {self.pump_sharing!r}")
+        if self.joint_inertia is not None:
+            inertia = check_vector(self.joint_inertia, 4, "joint_inertia")
+            if not np.all(inertia > 0.0):
+                raise InputError(f"joint_inertia: expected 4 positive values, got {list(self.joint_inertia)}")
 
 
 class SimulatedCrane:
@@ -139,6 +200,10 @@ class SimulatedCrane:
         Grapple point (end of the pendulum rod) (m, base frame).
     hard_stop_hits : int
         Number of times a joint ran into an end stop.
+    peak_pump_ratio : float
+        Largest flow delivered to the joints over the pump's flow so far (<= 1 with pump sharing).
+    joints : HydraulicJoints
+        The actuators' state (valve states ``x``, delivered speeds ``y``, sharing factor ``share``).
     """
 
     def __init__(
@@ -165,19 +230,27 @@ class SimulatedCrane:
         self._q_max = tuple(crane.q_max.tolist())
         self._v_min = tuple(crane.qd_min.tolist())
         self._v_max = tuple(crane.qd_max.tolist())
-        self._a_max = tuple((prm.accel_factor * crane.qdd_max).tolist())
         speed = np.minimum(-crane.qd_min, crane.qd_max)
         self._deadband = tuple((prm.deadband_frac * speed).tolist())
         self._rng = random.Random(int(prm.seed))
         self.payload_frac = float(prm.payload_frac)
         self._gain_pos = tuple(float(g) for g in prm.valve_gain_pos)
         self._gain_neg = tuple(float(g) for g in prm.valve_gain_neg)
-        self._dur_cached = math.nan
-        self._per_period: tuple = ()
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
         self.hard_stop_hits = 0
+        self.peak_pump_ratio = 0.0
         self._at_stop = [False] * 4
-        self._any_at_stop = False
+        self._second = prm.model == "second_order"
+        model = crane.model
+        mass = prm.load_mass_kg if prm.load_mass_kg is not None else model.load_mass
+        inertia = prm.joint_inertia if prm.joint_inertia is not None else model.joint_inertia
+        if mass and inertia is None:
+            raise InputError(f"crane {crane.name!r}: a load mass needs joint_inertia (SimParams or the crane file)")
+        self._mass = float(mass or 0.0) if self._second else 0.0
+        self._inv_inertia = tuple(1.0 / float(i) for i in inertia) if inertia is not None else (0.0,) * 4
+        disp = crane.model.displacement
+        pump = crane.model.pump_flow
+        self._pump = prm.pump_sharing and disp is not None and pump is not None
         # grapple hanging still relative to the tip
         p, jac = self.kin.tip_jacobian(*self.q)
         self.tip = p
@@ -187,6 +260,20 @@ class SimulatedCrane:
         self._grapple_prev = tuple(self.grapple[r] - v[r] * h for r in range(3))
         self._tip_prev = tuple(p[r] - v[r] * h for r in range(3))
         self._h_last = h
+        self._force = (0.0, 0.0, -self._mass * prm.gravity_m_s2)  # the rod's pull on the tip (N)
+        self.joints = HydraulicJoints(
+            self.q, self.qd, self._load(jac), second_order=self._second, valve_tau_s=prm.tau_s,
+            omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
+            a_relief=(prm.accel_factor * crane.qdd_max).tolist(),
+            displacement=list(disp) if self._pump and disp is not None else None,
+            pump_flow=float(pump) if self._pump and pump is not None else None,
+        )
+
+    def _load(self, jac: Sequence[float]) -> list[float]:
+        """Load per unit inertia ``f_i = (J^T F)_i / I_i`` (4,) of the rod's pull ``F`` on the tip."""
+        fx, fy, fz = self._force
+        inv = self._inv_inertia
+        return [(jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv[i] for i in range(4)]
 
     # --------------------------------------------------------------- read-out
     def state(self) -> CraneState:
@@ -231,23 +318,25 @@ class SimulatedCrane:
         return ((self.tip[0] - self._tip_prev[0]) / h, (self.tip[1] - self._tip_prev[1]) / h,
                 (self.tip[2] - self._tip_prev[2]) / h)
 
-    def _end_stops(self, q: list[float], v: list[float]) -> tuple[list[float], list[float]]:
-        """Clamp joints at their end stops, zero the velocity into the stop, count new hits."""
+    def _end_stops(self, q: list[float], v: list[float], s: list[float], f: list[float]) -> None:
+        """Clamp joints at their end stops, stop the motion into the stop, count new hits (in place)."""
         for i in range(4):
             if q[i] >= self._q_max[i]:
                 q[i] = self._q_max[i]
-                v[i] = min(v[i], 0.0)
+                if v[i] > 0.0:
+                    v[i] = 0.0
+                    s[i] = -f[i]
             elif q[i] <= self._q_min[i]:
                 q[i] = self._q_min[i]
-                v[i] = max(v[i], 0.0)
+                if v[i] < 0.0:
+                    v[i] = 0.0
+                    s[i] = -f[i]
             else:
                 self._at_stop[i] = False
                 continue
             if not self._at_stop[i]:
                 self._at_stop[i] = True
                 self.hard_stop_hits += 1
-        self._any_at_stop = any(self._at_stop)
-        return q, v
 
     # --------------------------------------------------------------- advance
     def advance(self, qd_cmd: Sequence[float], duration_s: float) -> None:
@@ -256,13 +345,8 @@ class SimulatedCrane:
         A non-finite command component is treated as 0 (the valve closes).
         """
         prm = self.params
-        if duration_s != self._dur_cached:  # per-period constants (the control period rarely changes)
-            n = max(1, int(round(duration_s / prm.dt_sub_s)))
-            h = duration_s / n
-            self._dur_cached = duration_s
-            self._per_period = (n, h, 1.0 - math.exp(-h / prm.tau_s), tuple(a * h for a in self._a_max),
-                                prm.gravity_m_s2 * h * h, prm.swing_damping_per_s * h)
-        n, h, alpha, caps, grav_h2, damp = self._per_period
+        n = max(1, int(round(duration_s / prm.dt_sub_s)))
+        h = duration_s / n
         db, vmin, vmax = self._deadband, self._v_min, self._v_max
         noise = prm.noise_frac
         load = prm.load_speed_loss * self.payload_frac
@@ -282,44 +366,38 @@ class SimulatedCrane:
             elif c < vmin[i]:
                 c = vmin[i]
             u.append(c)
-        c0, c1, c2, c3 = caps
-        u0, u1, u2, u3 = u
-        q0, q1, q2, q3 = self.q
-        v0, v1, v2, v3 = self.qd
+        joints = self.joints
+        q, v, s = joints.q, joints.v, joints.s
         lo0, lo1, lo2, lo3 = self._q_min
         hi0, hi1, hi2, hi3 = self._q_max
         tip = self.kin.tip
         sqrt = math.sqrt
         length2 = self.length_m * self.length_m
+        grav_h2 = prm.gravity_m_s2 * h * h
+        damp = prm.swing_damping_per_s * h
+        mass_h2 = self._mass / (h * h)
+        mg = self._mass * prm.gravity_m_s2
         gx, gy, gz = self.grapple
         gpx, gpy, gpz = self._grapple_prev
         tx, ty, tz = self.tip
         tpx, tpy, tpz = self._tip_prev
+        _, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
+        f = self._load(jac)
+        pump_ratio = self.peak_pump_ratio
+        disp = self.crane.model.displacement if self._pump else None
+        q_pump = self.crane.model.pump_flow
         for _ in range(n):
-            # joints, unrolled (a loop over four joints costs more than the arithmetic): exact lag step,
-            # acceleration limit, trapezoidal position; end stops are applied below
-            d = (u0 - v0) * alpha
-            d = c0 if d > c0 else (-c0 if d < -c0 else d)
-            q0 += (v0 + 0.5 * d) * h
-            v0 += d
-            d = (u1 - v1) * alpha
-            d = c1 if d > c1 else (-c1 if d < -c1 else d)
-            q1 += (v1 + 0.5 * d) * h
-            v1 += d
-            d = (u2 - v2) * alpha
-            d = c2 if d > c2 else (-c2 if d < -c2 else d)
-            q2 += (v2 + 0.5 * d) * h
-            v2 += d
-            d = (u3 - v3) * alpha
-            d = c3 if d > c3 else (-c3 if d < -c3 else d)
-            q3 += (v3 + 0.5 * d) * h
-            v3 += d
-            if not (lo0 < q0 < hi0 and lo1 < q1 < hi1 and lo2 < q2 < hi2 and lo3 < q3 < hi3):
-                (q0, q1, q2, q3), (v0, v1, v2, v3) = self._end_stops([q0, q1, q2, q3], [v0, v1, v2, v3])
-            elif self._any_at_stop:
-                self._at_stop = [False] * 4
-                self._any_at_stop = False
-            nx, ny, nz = tip(q0, q1, q2, q3)
+            joints.substep(u, f, h)
+            if disp is not None and q_pump is not None:
+                y = joints.y
+                r = (disp[0] * abs(y[0]) + disp[1] * abs(y[1]) + disp[2] * abs(y[2]) + disp[3] * abs(y[3])) / q_pump
+                if r > pump_ratio:
+                    pump_ratio = r
+            if not (lo0 < q[0] < hi0 and lo1 < q[1] < hi1 and lo2 < q[2] < hi2 and lo3 < q[3] < hi3):
+                self._end_stops(q, v, s, f)
+            else:
+                self._at_stop[0] = self._at_stop[1] = self._at_stop[2] = self._at_stop[3] = False
+            nx, ny, nz = tip(q[0], q[1], q[2], q[3])
             # grapple: position Verlet with damping on the velocity relative to the tip ...
             sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
             cx = gx + sx - damp * (sx - (tx - tpx))
@@ -332,14 +410,20 @@ class SimulatedCrane:
             excess = dx * dx + dy * dy + dz * dz - length2
             root = sqrt(dr * dr - length2 * excess) if dr * dr > length2 * excess else 0.0
             lam = -excess / (dr + root if dr >= 0.0 else dr - root)
+            ngx, ngy, ngz = cx + lam * ox, cy + lam * oy, cz + lam * oz
+            if mass_h2 > 0.0:  # the rod's pull on the tip, m (g_vec - a_grapple), and the joints' load
+                fx = -mass_h2 * (ngx - 2.0 * gx + gpx)
+                fy = -mass_h2 * (ngy - 2.0 * gy + gpy)
+                fz = -mg - mass_h2 * (ngz - 2.0 * gz + gpz)
+                self._force = (fx, fy, fz)
+                f = self._load(jac)
             gpx, gpy, gpz = gx, gy, gz
-            gx, gy, gz = cx + lam * ox, cy + lam * oy, cz + lam * oz
+            gx, gy, gz = ngx, ngy, ngz
             tpx, tpy, tpz = tx, ty, tz
             tx, ty, tz = nx, ny, nz
-        q = (q0, q1, q2, q3)
-        v = (v0, v1, v2, v3)
-        self.q = q
-        self.qd = v
+        self.q = (q[0], q[1], q[2], q[3])
+        self.qd = (v[0], v[1], v[2], v[3])
+        self.peak_pump_ratio = pump_ratio
         self.tip = (tx, ty, tz)
         self._tip_prev = (tpx, tpy, tpz)
         self.grapple = (gx, gy, gz)

@@ -68,7 +68,8 @@ def test_script_dropout_makes_the_controller_stop(tmp_path: Path, lab):
     arr = res.log.arrays()
     stale = (arr["flags"] & Flag.STALE_INPUT) != 0
     assert not stale[arr["t"] <= 1.099].any() and stale[arr["t"] > 1.101].all()
-    assert np.all(arr["qd_cmd"][-1] == 0.0) and np.abs(sim.qd).max() < 1e-6
+    # the valves are closed; the grapple, still swinging from the stop, pulls the arm through the oil springs
+    assert np.all(arr["qd_cmd"][-1] == 0.0) and np.abs(sim.joints.x).max() < 1e-6 and np.abs(sim.qd).max() < 0.05
     assert not res.settled  # stopped for stale input is not "settled at the target": the run hits its time limit
     assert [e.name for e in res.log.events] == ["stale"]
 

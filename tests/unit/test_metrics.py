@@ -189,3 +189,16 @@ def test_run_summary_fields(lab):
     tf = np.arange(0.0, 2.5, 0.0005)
     acc = np.gradient(np.gradient(lab.fk_batch(_slew(tf)), tf, axis=0), tf, axis=0)
     assert s["peak_acceleration_m_s2"] == pytest.approx(np.linalg.norm(acc, axis=1).max(), rel=0.02)
+
+
+def test_mode_rank_correlation_against_table1():
+    """Table 1 itself correlates perfectly; its reversal perfectly negatively (scipy's rho and tau)."""
+    from motionlib.experiment.stats import MODES, PAPER_TABLE1, mode_rank_correlation
+
+    same = {(o, m): v for o, row in PAPER_TABLE1.items() for m, v in zip(MODES, row, strict=True)}
+    for rho, tau in mode_rank_correlation(same).values():
+        assert rho == pytest.approx(1.0) and tau == pytest.approx(1.0)
+    flipped = {k: -v for k, v in same.items()}
+    assert all(r == pytest.approx(-1.0) for r, _ in mode_rank_correlation(flipped).values())
+    partial = {k: v for k, v in same.items() if k[0] != "O3"}
+    assert "O3" not in mode_rank_correlation(partial)

@@ -28,9 +28,9 @@ def _run(sim: SimulatedCrane, cmd, duration: float) -> tuple[np.ndarray, np.ndar
 
 
 def test_first_order_lag_step_response(lab):
-    """No acceleration limit: v = u (1 - exp(-t/tau)), q = q0 + u (t - tau (1 - exp(-t/tau)))."""
+    """First-order option, no acceleration limit: v = u (1 - exp(-t/tau)), q = q0 + u (t - tau (1 - exp(-t/tau)))."""
     tau = 0.08
-    prm = SimParams(tau_s=tau, accel_factor=1e6, deadband_frac=0.0)
+    prm = SimParams(model="first_order", tau_s=tau, accel_factor=1e6, deadband_frac=0.0, pump_sharing=False)
     sim = SimulatedCrane(lab, Q_MID, prm)
     u = np.array([0.2, -0.1, 0.15, 0.05])
     t, q, v = _run(sim, u, 0.6)
@@ -46,7 +46,7 @@ def test_first_order_lag_step_response(lab):
 def test_acceleration_limit_then_lag(lab):
     """A large step: ramp at a = accel_factor qdd_max until |u - v| = a tau, then the exponential tail."""
     tau = 0.05
-    prm = SimParams(tau_s=tau, accel_factor=1.0, deadband_frac=0.0)
+    prm = SimParams(model="first_order", tau_s=tau, accel_factor=1.0, deadband_frac=0.0, pump_sharing=False)
     sim = SimulatedCrane(lab, Q_MID, prm)
     u = np.array([0.5, 0.0, 0.0, 0.0])  # slew at its speed limit
     a = lab.qdd_max[0]
@@ -59,7 +59,7 @@ def test_acceleration_limit_then_lag(lab):
 
 
 def test_direction_dependent_saturation_and_dead_band(lab):
-    prm = SimParams(deadband_frac=0.01)
+    prm = SimParams(model="first_order", deadband_frac=0.01, pump_sharing=False)
     sim = SimulatedCrane(lab, Q_MID, prm)
     _, _, v = _run(sim, [10.0, -10.0, 10.0, -10.0], 0.8)  # short of the end stops
     np.testing.assert_allclose(v[-1], [lab.qd_max[0], lab.qd_min[1], lab.qd_max[2], lab.qd_min[3]], rtol=1e-3)
@@ -72,7 +72,7 @@ def test_direction_dependent_saturation_and_dead_band(lab):
 def test_end_stop_clamps_and_counts(lab):
     q0 = Q_MID.copy()
     q0[3] = lab.q_max[3] - 0.02
-    sim = SimulatedCrane(lab, q0, SimParams(deadband_frac=0.0))
+    sim = SimulatedCrane(lab, q0, SimParams(model="first_order", deadband_frac=0.0))
     _, q, v = _run(sim, [0.0, 0.0, 0.0, 0.3], 1.0)
     assert q[:, 3].max() == lab.q_max[3]
     assert v[-1, 3] == 0.0
@@ -99,7 +99,11 @@ def test_bad_arguments(lab):
         SimulatedCrane(lab, [0.0, 3.0, 0.0, 0.0])  # boom beyond its limit
     with pytest.raises(InputError):
         SimParams(tau_s=0.0)
-    sim = SimulatedCrane(lab, Q_MID)
+    with pytest.raises(InputError):
+        SimParams(model="third_order")
+    with pytest.raises(InputError):
+        SimParams(joint_inertia=(1.0, 1.0, 0.0, 1.0))
+    sim = SimulatedCrane(lab, Q_MID, SimParams(load_mass_kg=0.0))
     sim.advance([math.nan, math.inf, 0.1, 0.0], DT)  # a non-finite command closes the valve
     assert sim.qd[0] == 0.0 and sim.qd[1] == 0.0 and sim.qd[2] > 0.0
 
@@ -107,7 +111,7 @@ def test_bad_arguments(lab):
 @pytest.mark.parametrize("c", [0.0, 0.6])
 def test_small_swing_period_and_decay(lab, c):
     """Crane at rest, small swing: period 2 pi sqrt(L/g), amplitude decaying as exp(-c t / 2)."""
-    prm = SimParams(swing_damping_per_s=c)
+    prm = SimParams(swing_damping_per_s=c, load_mass_kg=0.0)  # a fixed pivot: no reaction on the arm
     sim = SimulatedCrane(lab, Q_MID, prm)
     theta0 = 0.03
     sim.set_grapple([math.sin(theta0), 0.0, -math.cos(theta0)])
@@ -134,7 +138,7 @@ def test_small_swing_period_and_decay(lab, c):
 def test_swing_follows_linear_pendulum_driven_by_tip_acceleration(lab):
     """Telescope moves back and forth: the swing in the boom plane solves theta'' + c theta' + g/L theta = -a/L."""
     c = 0.5
-    prm = SimParams(swing_damping_per_s=c, deadband_frac=0.0)
+    prm = SimParams(model="first_order", swing_damping_per_s=c, deadband_frac=0.0)
     q0 = np.array([0.0, 0.5, -0.5, 0.3])  # boom plane = x-z plane, telescope horizontal
     sim = SimulatedCrane(lab, q0, prm)
     ts, tip, rel = [sim.t], [sim.tip], [np.subtract(sim.grapple, sim.tip)]
