@@ -680,11 +680,13 @@ def _read_index(path: Path, f: h5py.File, n: int, n_entries: int) -> dict[str, n
     where = f"{path}: corrupt library"
     for key, tail in INDEX_FIELDS.items():
         name = f"/index/{key}"
-        ds = group.get(key)
-        if key == "approach_p" and isinstance(ds, h5py.Dataset) and ds.ndim == 3:
+        ds = f.get(name)
+        if not isinstance(ds, h5py.Dataset):
+            raise LibraryFileError(f"{where}: dataset {name} is missing")
+        if key == "approach_p" and ds.ndim == 3:
             k = ds.shape[1]
         expected = tuple(n if d == "n" else (k if d == "k" else int(d)) for d in ("n", *tail))
-        if isinstance(ds, h5py.Dataset) and ds.shape != expected:
+        if ds.shape != expected:
             raise LibraryFileError(f"{where}: {name} has shape {ds.shape}, expected {expected}")
         data = read_array(f, name, where, max(1, int(np.prod(expected))), np.int64 if key == "entry" else np.float64)
         if key == "entry" and ds.dtype.kind not in "iu":
