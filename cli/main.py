@@ -28,6 +28,7 @@ from motionlib.errors import MotionlibError
 
 # command name -> "module:attribute" (module relative to the cli package)
 COMMANDS: dict[str, str] = {
+    "analyze": "analyze:analyze",
     "crane": "crane:crane",
     "fk": "fk:fk",
     "ik": "ik:ik",

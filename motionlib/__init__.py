@@ -10,8 +10,8 @@ Library.open(path).select(target_p, current_q, utility) -> SelectionResult
     Rank a library's trajectories for an operator's target (003 eqs. 5.3-5.7).
 execute(trajectory, crane, scene, mode=..., operator=..., target=...) -> RunResult
     Run a trajectory in the 200 Hz shared-control loop on the simulated crane (:mod:`motionlib.runtime`).
-run_experiment(config) -> ExperimentResult
-    000's log-loading experiment in simulation (:mod:`motionlib.experiment`).
+log_loading_experiment(config, out_dir) -> ExperimentReport
+    000's log-loading experiment in simulation, from library to report (:mod:`motionlib.experiment`).
 write_view(path, output) -> ViewResult
     A self-contained 3D page of a plan, library or run log (:mod:`motionlib.viz`).
 
@@ -56,7 +56,7 @@ _EXPORTS: dict[str, str] = {
     "plan": "motionlib.planning.planner",
     "build_library": "motionlib.library.build",
     "execute": "motionlib.runtime.execute",
-    "run_experiment": "motionlib.experiment.runner",
+    "log_loading_experiment": "motionlib.experiment.runner",
     "write_view": "motionlib.viz.viewer",
     # types users load or get back
     "Crane": "motionlib.model.kinematics",
@@ -75,6 +75,7 @@ _EXPORTS: dict[str, str] = {
     "RunResult": "motionlib.runtime.execute",
     "ExecuteOptions": "motionlib.runtime.execute",
     "ExperimentConfig": "motionlib.experiment.runner",
+    "ExperimentReport": "motionlib.experiment.runner",
     "ViewOptions": "motionlib.viz.viewer",
 }
 
@@ -82,7 +83,7 @@ __all__ = [
     "plan",
     "build_library",
     "execute",
-    "run_experiment",
+    "log_loading_experiment",
     "write_view",
     "Crane",
     "Capsule",
@@ -100,6 +101,7 @@ __all__ = [
     "RunResult",
     "ExecuteOptions",
     "ExperimentConfig",
+    "ExperimentReport",
     "ViewOptions",
     "ExecutionError",
     "InputError",
@@ -112,7 +114,7 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
-    from .experiment.runner import ExperimentConfig, run_experiment
+    from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library
     from .library.selection import SelectionResult
     from .library.spec import LibrarySpec

@@ -494,6 +494,7 @@ class SelectionIndex:
         sigma_m: float = DEFAULT_SIGMA_M,
         v_manual_m_s: float = DEFAULT_V_MANUAL_M_S,
         max_candidates: int = 10,
+        covariance: Any = None,
     ) -> SelectionResult:
         """Select the trajectory for an estimated target (003 eqs. 5.3-5.7).
 
@@ -515,6 +516,10 @@ class SelectionIndex:
             Manual correction speed (m/s), > 0; ``robust`` only.
         max_candidates : int
             Number of ranked entries to return (>= 1).
+        covariance : array_like, shape (3, 3), optional
+            ``robust`` only: the covariance (m^2) of the target estimate's error, ``p_true ~ N(p_est,
+            covariance)``, e.g. from a gaze model (:mod:`motionlib.runtime.gaze`); replaces
+            ``sigma_m^2 I``. Symmetric and positive semi-definite.
 
         Returns
         -------
@@ -538,6 +543,7 @@ class SelectionIndex:
                 raise InputError("utility 'robust' needs approach_p and approach_t in the index")
             sigma = check_scalar(sigma_m, "sigma_m", gt=0.0, le=big)
             v_manual = check_scalar(v_manual_m_s, "v_manual_m_s", gt=0.0, le=big)
+            error_map = sigma * np.eye(3) if covariance is None else covariance_root(covariance)
 
         if current_q is None:
             qc, l2 = _NO_Q, np.nan  # L2 not applied
@@ -549,7 +555,7 @@ class SelectionIndex:
             return self._failure(p, qc, util, l1, l2, sigma, v_manual)
 
         if util is Utility.ROBUST:
-            score = -self._expected_time(cand, p, sigma, v_manual)
+            score = -self._expected_time(cand, p, error_map, v_manual)
         else:
             score = self._scores[util][cand]
         order = _rank(score, cand, int(max_candidates))
@@ -601,7 +607,7 @@ class SelectionIndex:
         """``d2 = ||W (c - q_c)||`` (003 eq. 5.4) for starts (m, 4) -> (m,)."""
         return _row_norms((starts - qc) * self.start_weights)
 
-    def _expected_time(self, cand: np.ndarray, p_est: np.ndarray, sigma: float, v_manual: float) -> np.ndarray:
+    def _expected_time(self, cand: np.ndarray, p_est: np.ndarray, error_map: np.ndarray, v_manual: float) -> np.ndarray:
         """``E[t_total]`` (s) per candidate, shape (m,), for the robust model (003 eq. 5.7).
 
         For every candidate, segment ``j`` of its approach polyline and sample ``s``: ``w = p_true - a_j``,
@@ -611,7 +617,7 @@ class SelectionIndex:
         if self.approach_p is None or self.approach_t is None:
             raise InputError("utility 'robust' needs approach_p and approach_t in the index")
         approach_p, approach_t = self.approach_p, self.approach_t
-        z_t = (sigma * self.unit_samples).T  # (3, S): p_true - p_est
+        z_t = error_map @ self.unit_samples.T  # (3, S): p_true - p_est = L z, L L^T = covariance
         zz = (z_t * z_t).sum(axis=0)  # (S,)
         out = np.empty(cand.size)
         for lo in range(0, cand.size, _ROBUST_CHUNK):
@@ -636,6 +642,25 @@ class SelectionIndex:
             t_takeover = t[row, j] + u[row, j, col] * (t[row, j + 1] - t[row, j])
             out[lo : lo + m] = (t_takeover + dist / v_manual).mean(axis=1)
         return out
+
+
+def covariance_root(covariance: Any) -> np.ndarray:
+    """A matrix ``L`` (3, 3) with ``L L^T = covariance`` (symmetric square root; semi-definite allowed).
+
+    Raises
+    ------
+    InputError
+        Not a finite symmetric (3, 3) matrix, or an eigenvalue below ``-1e-12`` of its largest.
+    """
+    c = np.asarray(covariance, dtype=np.float64)
+    if c.shape != (3, 3) or not np.all(np.isfinite(c)):
+        raise InputError(f"covariance: expected a finite (3, 3) matrix, got shape {c.shape}")
+    if not np.allclose(c, c.T, rtol=1e-9, atol=1e-15):
+        raise InputError("covariance: expected a symmetric matrix")
+    w, v = np.linalg.eigh(c)
+    if w.min() < -1e-12 * max(w.max(), 1e-300):
+        raise InputError(f"covariance: expected a positive semi-definite matrix, eigenvalues {w.tolist()}")
+    return (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T
 
 
 def _row_norms(v: np.ndarray) -> np.ndarray:

@@ -188,10 +188,10 @@ class Region:
         """Highest corner (3,), m."""
         return np.asarray(self.center) + np.asarray(self.size) / 2.0
 
-    def contains(self, p: Any) -> np.ndarray:
-        """True where points ``p`` (3,) or (n, 3) (m) lie inside the box (boundary included)."""
+    def contains(self, p: Any, margin: float = 0.0) -> np.ndarray:
+        """True where points ``p`` (3,) or (n, 3) (m) lie inside the box grown by ``margin`` (m) (boundary included)."""
         p = np.asarray(p, dtype=np.float64)
-        return np.all((p >= self.lower) & (p <= self.upper), axis=-1)
+        return np.all((p >= self.lower - margin) & (p <= self.upper + margin), axis=-1)
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "center": list(self.center), "size": list(self.size)}

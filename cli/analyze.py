@@ -1,0 +1,53 @@
+"""``motionlib analyze``: recorded crane work split into work-cycle states, with its statistics (003 chapter 3)."""
+
+from __future__ import annotations
+
+import click
+
+from .options import crane_option, json_option, scene_option
+from .output import emit_json
+
+
+@click.command()
+@click.argument("recording", type=click.Path(dir_okay=False))
+@crane_option(default=None, extra_help=" Default: the crane the recording names.")
+@scene_option(required=False)
+@json_option
+@click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
+def analyze(recording, crane_name, scene_file, as_json, plot_dir) -> None:
+    """Split RECORDING (CSV or run log, docs/recording-format.md) into the states of 003 Table 3.1.
+
+    Prints the time distribution (n, median time per occurrence, share of the total) and how
+    many joint functions the operator moves at once (003 Figs. 3.3-3.4).
+    """
+    from motionlib import Crane, Scene
+    from motionlib.analysis.work_analysis import analyze_recording
+
+    crane = Crane.load(crane_name) if crane_name else None
+    scene = Scene.load(scene_file, crane=crane) if scene_file else None
+    result = analyze_recording(recording, crane=crane, scene=scene)
+    report = result.to_dict()
+    if plot_dir:
+        from motionlib.viz.work_plots import plot_work
+
+        files = plot_work(plot_dir, result.recording, result.segmentation, result.usage, result.activity)
+        report["plots"] = [str(p) for p in files]
+    if as_json:
+        emit_json(report)
+        return
+    rec = result.recording
+    where = f" in {rec.scene.name}" if rec.scene is not None else " (no scene)"
+    click.echo(f"{rec.source}: {rec.duration_s:.1f} s of {rec.crane.name} crane work{where}, "
+               f"{rec.t.size} samples, {len(rec.events)} grapple events")
+    click.echo(f"  {'state':<6} {'':<28} {'n':>4} {'t_seq (s)':>10} {'t_tot (%)':>10}")
+    for row in result.table:
+        median = "-" if row.n == 0 else f"{row.median_s:10.2f}"
+        click.echo(f"  {row.state.value:<6} {row.state.label:<28} {row.n:4d} {median:>10} {100 * row.share:10.1f}")
+    u = result.usage
+    source = "sticks" if u.from_sticks else "joint velocities"
+    click.echo(f"  joint functions moved at once ({source}), share of time:")
+    click.echo("    k                 " + "".join(f"{k:>7d}" for k in range(5)))
+    click.echo("    whole recording   " + "".join(f"{100 * v:6.1f}%" for v in u.overall))
+    click.echo("    crane manipulation" + "".join(f"{100 * v:6.1f}%" for v in u.manipulation))
+    for path in report.get("plots", []):
+        click.echo(f"  figure: {path}")

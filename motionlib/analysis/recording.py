@@ -1,0 +1,302 @@
+"""Recorded crane work: the import format and its strict reader (docs/recording-format.md).
+
+A recording is a time series of joint positions of one crane, at a fixed or varying rate,
+with optional stick signals and grapple events, as 003 section 3.1 recorded forwarder work
+(joint encoders, joystick signals, grapple action). Two file kinds are read:
+
+* **CSV** (``.csv``): ``# key: value`` header lines (``crane`` required; ``scene``,
+  ``operator``, ``description`` optional), then a column header and one row per sample:
+  ``t, q1, q2, q3, q4`` (s, rad, rad, rad, m), optionally ``u1, u2, u3, u4`` (the sticks of
+  the slew, boom, jib and telescope functions, normalised to [-1, 1]) and ``grapple`` (an
+  event at that sample: ``close`` or ``open``, empty otherwise).
+* **Run log** (``.h5``) of ``motionlib execute --log``: times and joint positions; its
+  events named ``grapple_close`` / ``grapple_open`` become grapple events; the crane and
+  scene are those embedded in the library the run log names, when it can be found.
+
+Files are read strictly: the error names the file, the line or key, and what was expected.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import ModelFileError
+from ..model.kinematics import Crane
+from ..model.scene import Scene
+
+RECORDING_FORMAT = "motionlib recording 1"
+JOINT_COLUMNS = ("t", "q1", "q2", "q3", "q4")
+STICK_COLUMNS = ("u1", "u2", "u3", "u4")
+GRAPPLE_COLUMN = "grapple"
+GRAPPLE_EVENTS = ("close", "open")
+HEADER_KEYS = ("format", "crane", "scene", "operator", "description")
+#: A recording's joint positions may lie this far outside the crane's limits (rad or m): encoder tolerance.
+LIMIT_TOLERANCE = 0.02
+#: Longest gap between two samples (s) before a recording is rejected as having a hole.
+MAX_SAMPLE_GAP_S = 1.0
+
+
+@dataclass(frozen=True)
+class GrappleEvent:
+    """The grapple closed (grasp) or opened (release) at time ``t`` (s)."""
+
+    t: float
+    action: str  # "close" or "open"
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One recording of crane work.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Sample times (s), strictly increasing.
+    q : ndarray, shape (N, 4)
+        Joint positions (rad, rad, rad, m).
+    sticks : ndarray, shape (N, 4), or None
+        Stick signals of the four joint functions in [-1, 1]; None when not recorded.
+    events : tuple of GrappleEvent
+        Grapple events in time order (empty when not recorded).
+    crane : Crane
+    scene : Scene or None
+        The site, when the recording names one.
+    source : str
+        The file it was read from.
+    operator, description : str
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    sticks: np.ndarray | None
+    events: tuple[GrappleEvent, ...]
+    crane: Crane
+    scene: Scene | None
+    source: str
+    operator: str = ""
+    description: str = ""
+    _tip: list[np.ndarray] = field(default_factory=list, repr=False, compare=False)
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+    @property
+    def tip(self) -> np.ndarray:
+        """Tip positions ``fk(q)`` (N, 3) (m, base frame)."""
+        if not self._tip:
+            self._tip.append(self.crane.fk_batch(self.q))
+        return self._tip[0]
+
+
+def read_recording(path: str | Path, crane: Crane | None = None, scene: Scene | None = None) -> Recording:
+    """Read a recording (CSV or run-log HDF5, see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+    crane, scene : Crane, Scene, optional
+        Override the crane and scene the file names.
+
+    Raises
+    ------
+    ModelFileError
+        The file is unreadable or malformed; the message names the file and the line or key.
+    """
+    path = Path(path)
+    if path.suffix.lower() in (".h5", ".hdf5"):
+        return _read_runlog(path, crane, scene)
+    return _read_csv(path, crane, scene)
+
+
+def write_recording(path: str | Path, rec: Recording, scene_path: str | None = None) -> Path:
+    """Write ``rec`` as CSV (the format :func:`read_recording` reads) atomically.
+
+    ``scene_path`` is written as the ``scene`` header (a path relative to the file, or a name).
+    """
+    from ..fileio import atomic_output
+
+    path = Path(path)
+    cols = list(JOINT_COLUMNS) + (list(STICK_COLUMNS) if rec.sticks is not None else [])
+    cols += [GRAPPLE_COLUMN] if rec.events else []
+    at = {int(np.argmin(np.abs(rec.t - e.t))): e.action for e in rec.events}
+    buf = io.StringIO()
+    buf.write(f"# format: {RECORDING_FORMAT}\n# crane: {rec.crane.model.name}\n")
+    if scene_path:
+        buf.write(f"# scene: {scene_path}\n")
+    for key in ("operator", "description"):
+        value = getattr(rec, key)
+        if value:
+            buf.write(f"# {key}: {value}\n")
+    writer = csv.writer(buf, lineterminator="\n")
+    writer.writerow(cols)
+    for i in range(rec.t.size):
+        row = [f"{rec.t[i]:.4f}", *(f"{v:.6f}" for v in rec.q[i])]
+        if rec.sticks is not None:
+            row += [f"{v:.4f}" for v in rec.sticks[i]]
+        if rec.events:
+            row.append(at.get(i, ""))
+        writer.writerow(row)
+    with atomic_output(path) as tmp:
+        tmp.write_text(buf.getvalue(), encoding="utf-8")
+    return path
+
+
+# ------------------------------------------------------------------------- CSV
+def _read_csv(path: Path, crane: Crane | None, scene: Scene | None) -> Recording:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ModelFileError(f"{path}: cannot read file ({exc.strerror})") from exc
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(f"{path}: expected UTF-8 text, found byte 0x{raw[exc.start]:02x} at {exc.start}") from exc
+    header: dict[str, str] = {}
+    body: list[tuple[int, str]] = []
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            if body:
+                raise ModelFileError(f"{path}:{lineno}: comment lines belong before the column header")
+            key, sep, value = stripped[1:].partition(":")
+            key = key.strip()
+            if not sep or key not in HEADER_KEYS:
+                keys = ", ".join(HEADER_KEYS)
+                raise ModelFileError(f"{path}:{lineno}: expected '# key: value' with key one of {keys}")
+            if key in header:
+                raise ModelFileError(f"{path}:{lineno}: duplicate header key {key!r}")
+            header[key] = value.strip()
+            continue
+        body.append((lineno, line))
+    if header.get("format", RECORDING_FORMAT) != RECORDING_FORMAT:
+        raise ModelFileError(f"{path}: format: expected {RECORDING_FORMAT!r}, got {header['format']!r}")
+    if not body:
+        raise ModelFileError(f"{path}: no column header and no samples")
+    rows = list(csv.reader([ln for _, ln in body]))
+    columns = [c.strip() for c in rows[0]]
+    allowed = [list(JOINT_COLUMNS), list(JOINT_COLUMNS) + [GRAPPLE_COLUMN],
+               list(JOINT_COLUMNS) + list(STICK_COLUMNS), list(JOINT_COLUMNS) + list(STICK_COLUMNS) + [GRAPPLE_COLUMN]]
+    if columns not in allowed:
+        raise ModelFileError(
+            f"{path}:{body[0][0]}: expected the columns t,q1,q2,q3,q4[,u1,u2,u3,u4][,grapple], got {','.join(columns)}"
+        )
+    n_num = len(columns) - (1 if columns[-1] == GRAPPLE_COLUMN else 0)
+    values = np.empty((len(rows) - 1, n_num))
+    events: list[GrappleEvent] = []
+    for k, (fields, (lineno, _)) in enumerate(zip(rows[1:], body[1:], strict=True)):
+        if len(fields) != len(columns):
+            raise ModelFileError(f"{path}:{lineno}: expected {len(columns)} values, got {len(fields)}")
+        for j in range(n_num):
+            values[k, j] = _number(path, lineno, columns[j], fields[j])
+        if n_num < len(columns):
+            action = fields[-1].strip()
+            if action and action not in GRAPPLE_EVENTS:
+                raise ModelFileError(f"{path}:{lineno}: grapple: expected close, open or nothing, got {action[:20]!r}")
+            if action:
+                events.append(GrappleEvent(float(values[k, 0]), action))
+    if "crane" not in header and crane is None:
+        raise ModelFileError(f"{path}: header key 'crane' is missing (# crane: NAME or path)")
+    crane = crane or _load_crane(path, header["crane"])
+    if scene is None and header.get("scene"):
+        scene = _load_scene(path, header["scene"], crane)
+    sticks = values[:, 5:9] if n_num >= 9 else None
+    return _checked(path, values[:, 0], values[:, 1:5], sticks, tuple(events), crane, scene,
+                    header.get("operator", ""), header.get("description", ""))
+
+
+def _number(path: Path, lineno: int, column: str, text: str) -> float:
+    text = text.strip()
+    if len(text) > 40:
+        raise ModelFileError(f"{path}:{lineno}: {column}: expected a number, got a {len(text)}-character value")
+    try:
+        x = float(text)
+    except ValueError:
+        raise ModelFileError(f"{path}:{lineno}: {column}: expected a number, got {text!r}") from None
+    if not math.isfinite(x):
+        raise ModelFileError(f"{path}:{lineno}: {column}: expected a finite number, got {text!r}")
+    return x
+
+
+def _load_crane(path: Path, name: str) -> Crane:
+    """A shipped crane by name, or a crane file relative to the recording."""
+    return Crane.load(path.parent / name if name.endswith((".yaml", ".yml")) else name)
+
+
+def _load_scene(path: Path, name: str, crane: Crane) -> Scene:
+    candidate = Path(name)
+    if not candidate.is_absolute():
+        beside = path.parent / candidate
+        candidate = beside if beside.exists() else candidate
+    return Scene.load(candidate, crane=crane)
+
+
+# --------------------------------------------------------------------- run log
+def _read_runlog(path: Path, crane: Crane | None, scene: Scene | None) -> Recording:
+    from ..errors import LibraryFileError
+    from ..library.store import Library
+    from ..runtime.runlog import read_runlog
+
+    try:
+        log = read_runlog(path)
+    except LibraryFileError as exc:
+        raise ModelFileError(str(exc)) from exc
+    attrs: dict[str, Any] = log["attrs"]
+    if crane is None or scene is None:
+        lib_name = attrs.get("library")
+        lib_path = Path(lib_name) if lib_name else None
+        if lib_path is not None and not lib_path.is_absolute() and not lib_path.exists():
+            lib_path = path.parent / lib_path
+        if lib_path is not None and lib_path.is_file():
+            lib = Library.open(lib_path)
+            crane, scene = crane or lib.crane, scene or lib.scene
+        elif crane is None:
+            crane = Crane.load(str(attrs.get("crane", "")))
+    assert crane is not None
+    events = tuple(
+        GrappleEvent(float(e["t"]), e["name"].removeprefix("grapple_"))
+        for e in log["events"]
+        if e["name"] in ("grapple_close", "grapple_open")
+    )
+    return _checked(path, np.asarray(log["t"], float), np.asarray(log["q"], float), None, events, crane, scene,
+                    str(attrs.get("operator", "")), f"run log of {attrs.get('mode', '?')}")
+
+
+# ---------------------------------------------------------------------- checks
+def _checked(
+    path: Path, t: np.ndarray, q: np.ndarray, sticks: np.ndarray | None, events: tuple[GrappleEvent, ...],
+    crane: Crane, scene: Scene | None, operator: str, description: str,
+) -> Recording:
+    if t.size < 2:
+        raise ModelFileError(f"{path}: expected at least 2 samples, got {t.size}")
+    dt = np.diff(t)
+    if not np.all(dt > 0):
+        k = int(np.argmax(dt <= 0)) + 1
+        raise ModelFileError(f"{path}: t: expected strictly increasing times, sample {k} is at {t[k]} s")
+    if dt.max() > MAX_SAMPLE_GAP_S:
+        k = int(np.argmax(dt))
+        raise ModelFileError(f"{path}: t: a gap of {dt[k]:.3f} s after {t[k]} s (at most {MAX_SAMPLE_GAP_S} s)")
+    outside = (q < crane.q_min - LIMIT_TOLERANCE) | (q > crane.q_max + LIMIT_TOLERANCE)
+    if outside.any():
+        k, j = (int(v) for v in np.argwhere(outside)[0])
+        raise ModelFileError(
+            f"{path}: q{j + 1} = {q[k, j]:.4f} at t = {t[k]} s is outside the limits "
+            f"[{crane.q_min[j]}, {crane.q_max[j]}] of crane {crane.name!r} (tolerance {LIMIT_TOLERANCE})"
+        )
+    if sticks is not None and np.any(np.abs(sticks) > 1.0):
+        k, j = (int(v) for v in np.argwhere(np.abs(sticks) > 1.0)[0])
+        raise ModelFileError(f"{path}: u{j + 1} = {sticks[k, j]} at t = {t[k]} s: expected a stick signal in [-1, 1]")
+    for a, b in zip(events, events[1:], strict=False):
+        if a.action == b.action:
+            raise ModelFileError(f"{path}: grapple: two '{a.action}' events in a row (t = {a.t} s and {b.t} s)")
+    return Recording(t, np.clip(q, crane.q_min, crane.q_max), sticks, events, crane, scene, str(path),
+                     operator, description)

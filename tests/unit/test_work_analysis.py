@@ -1,0 +1,146 @@
+"""Recorded work: the recording format, the segmentation into 003 Table 3.1 states, the work statistics.
+
+References: a synthetic recording built with known state boundaries (minimum-jerk joint moves
+between a bunk and a pile configuration, pauses with grapple events), and brute-force counts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionlib.analysis.recording import GrappleEvent, Recording, read_recording, write_recording
+from motionlib.analysis.segmentation import WorkState, segment_recording
+from motionlib.analysis.work_stats import joint_activity, joint_usage, time_distribution
+from motionlib.errors import ModelFileError
+from motionlib.model.kinematics import Crane
+from motionlib.model.scene import Scene
+
+RATE_HZ = 100.0
+
+
+def minimum_jerk(u: np.ndarray) -> np.ndarray:
+    return 10 * u**3 - 15 * u**4 + 6 * u**5
+
+
+def synthetic(scene_file: str | None = "obstacles/forwarder-site.yaml", events: bool = True):
+    """Bunk -> pile -> bunk cycles with known boundaries; returns (recording, [(state, t0, t1), ...])."""
+    crane = Crane.load("forwarder")
+    scene = Scene.load(scene_file) if scene_file else None
+    bunk = np.array([0.0, 1.2746, -1.9927, 0.3])  # tip above the bunk (forwarder-site bunk-center)
+    pile = np.array([1.0201, 0.6616, -1.3149, 1.0])  # tip above pile-left
+    plan = [  # (state, duration s, from, to); pauses hold the pose
+        (WorkState.OTHER, 1.5, bunk, bunk),
+        (WorkState.S6, 4.0, bunk, pile),
+        (WorkState.S7, 4.0, pile, pile),
+        (WorkState.S8, 5.0, pile, bunk),
+        (WorkState.S9, 3.0, bunk, bunk),
+        (WorkState.S6, 3.5, bunk, pile),
+        (WorkState.S7, 5.0, pile, pile),
+        (WorkState.S8, 4.5, pile, bunk),
+        (WorkState.S9, 2.5, bunk, bunk),
+    ]
+    t_all, q_all, truth, evs = [], [], [], []
+    t0 = 0.0
+    for state, dur, a, b in plan:
+        n = int(round(dur * RATE_HZ))
+        u = np.arange(n) / n
+        t_all.append(t0 + u * dur)
+        q_all.append(a + minimum_jerk(u)[:, None] * (b - a))
+        truth.append((state, t0, t0 + dur))
+        if state in (WorkState.S7, WorkState.S9):
+            evs.append(GrappleEvent(round(t0 + dur / 2, 2), "close" if state is WorkState.S7 else "open"))
+        t0 += dur
+    t = np.concatenate([*t_all, [t0]])
+    q = np.concatenate([*q_all, plan[-1][3][None]])
+    rec = Recording(t, q, None, tuple(evs) if events else (), crane, scene, "synthetic")
+    return rec, truth
+
+
+@pytest.mark.parametrize("events", [True, False], ids=["grapple-events", "places-only"])
+def test_segmentation_recovers_known_boundaries(events):
+    rec, truth = synthetic(events=events)
+    seg = segment_recording(rec)
+    got = [(s.state, s.t0, s.t1) for s in seg.segments]
+    assert [g[0] for g in got] == [w[0] for w in truth]
+    for (_, g0, g1), (_, w0, w1) in zip(got, truth, strict=True):
+        assert abs(g0 - w0) <= 0.1 and abs(g1 - w1) <= 0.1, (g0, g1, w0, w1)
+
+
+def test_without_scene_or_events_pauses_alternate_grasp_and_release():
+    rec, truth = synthetic(scene_file=None, events=False)
+    states = [s.state for s in segment_recording(rec).segments]
+    assert states == [w[0] for w in truth]
+
+
+def test_time_distribution_adds_up():
+    rec, truth = synthetic()
+    seg = segment_recording(rec)
+    rows = {r.state: r for r in time_distribution(seg, rec.duration_s)}
+    assert sum(r.share for r in rows.values()) == pytest.approx(1.0)
+    for state in (WorkState.S6, WorkState.S7, WorkState.S8, WorkState.S9):
+        want = [t1 - t0 for s, t0, t1 in truth if s is state]
+        assert rows[state].n == len(want)
+        assert rows[state].median_s == pytest.approx(np.median(want), abs=0.2)  # two ends, 0.1 s each
+
+
+def test_joint_usage_against_a_brute_force_count():
+    rec, _ = synthetic()
+    seg = segment_recording(rec)
+    active = joint_activity(rec)
+    usage = joint_usage(rec, seg, active)
+    # brute force: the share of a fine uniform time grid with k active joints (nearest sample)
+    fine = np.linspace(rec.t[0], rec.t[-1], 200_001)
+    nearest = np.clip(np.round((fine - rec.t[0]) * RATE_HZ).astype(int), 0, rec.t.size - 1)
+    counts = active[nearest].sum(axis=1)
+    manip = np.zeros(fine.size, dtype=bool)
+    for s in seg.segments:
+        if s.state is not WorkState.OTHER:
+            manip |= (fine >= s.t0) & (fine <= s.t1)
+    for got, mask in ((usage.overall, np.ones(fine.size, dtype=bool)), (usage.manipulation, manip)):
+        want = np.array([(counts[mask] == k).mean() for k in range(5)])
+        np.testing.assert_allclose(got, want, atol=2e-3)
+        assert got.sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(usage.per_joint, active[nearest].mean(axis=0), atol=2e-3)
+
+
+def test_csv_round_trip(tmp_path):
+    rec, _ = synthetic()
+    path = write_recording(tmp_path / "rec.csv", rec, scene_path="../../obstacles/forwarder-site.yaml")
+    text = path.read_text()
+    assert text.startswith("# format: motionlib recording 1\n# crane: forwarder\n")
+    back = read_recording(path, scene=rec.scene)
+    np.testing.assert_allclose(back.t, rec.t, atol=1e-4)
+    np.testing.assert_allclose(back.q, rec.q, atol=1e-6)
+    assert [(e.action, e.t) for e in back.events] == [(e.action, pytest.approx(e.t, abs=1e-4)) for e in rec.events]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("t,q1,q2,q3,q4\n0,0,1,-1,0.5\n", "header key 'crane' is missing"),
+        ("# crane: forwarder\n# crane: lab\n", "duplicate header key 'crane'"),
+        ("# cran: forwarder\n", "expected '# key: value'"),
+        ("# crane: forwarder\nt,q1,q2,q3\n", "expected the columns"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1\n", r":3: expected 5 values, got 4"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,nan\n", "q4: expected a finite number"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0,0,1,-1,0.5\n", "strictly increasing"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0.1,0,9,-1,0.5\n", "q2 = 9.0000 at t = 0.1 s is outside"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4,grapple\n0,0,1,-1,0.5,shut\n", "grapple: expected close, open"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4,grapple\n0,0,1,-1,0.5,close\n0.1,0,1,-1,0.5,close\n", "two 'close'"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n5,0,1,-1,0.5\n", "a gap of 5.000 s"),
+    ],
+)
+def test_bad_csv_names_file_and_line(tmp_path, text, message):
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(ModelFileError, match=message) as info:
+        read_recording(path)
+    assert str(path) in str(info.value)
+
+
+def test_binary_file_is_a_clean_error(tmp_path):
+    path = tmp_path / "bin.csv"
+    path.write_bytes(b"# crane: forwarder\n\xff\xfe\x00")
+    with pytest.raises(ModelFileError, match="expected UTF-8 text"):
+        read_recording(path)
