@@ -56,11 +56,11 @@ class _StrictConstruction:
                     f"duplicate key {short(key)} (first given at line {first + 1})", key_node.start_mark,
                 )
             seen[key] = key_node.start_mark.line
-        return super().construct_mapping(node, deep=deep)
+        return super().construct_mapping(node, deep=deep)  # type: ignore[misc]  # a mixin of the loader
 
     def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
         try:
-            return super().construct_object(node, deep=deep)
+            return super().construct_object(node, deep=deep)  # type: ignore[misc]  # a mixin of the loader
         except (ValueError, OverflowError, TypeError) as exc:
             what = str(exc)
             if node.tag == "tag:yaml.org,2002:int":

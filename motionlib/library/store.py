@@ -675,7 +675,7 @@ def _read_index(path: Path, f: h5py.File, n: int, n_entries: int) -> dict[str, n
     group = f.get("index")
     if not isinstance(group, h5py.Group):
         raise LibraryFileError(f"{path}: corrupt library: group /index is missing")
-    k = None
+    k = 0
     arrays = {}
     where = f"{path}: corrupt library"
     for key, tail in INDEX_FIELDS.items():

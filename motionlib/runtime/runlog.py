@@ -89,7 +89,7 @@ class RunLog:
             with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s.
         """
         data = np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))
-        out = {
+        out: dict[str, np.ndarray] = {
             "t": data[:, 0].copy(),
             "q": data[:, 1:5].copy(),
             "qd": data[:, 5:9].copy(),
