@@ -505,7 +505,8 @@ def make_fixtures(workdir: Path) -> Fixtures:
     spec_path.write_text(yaml.safe_dump(spec, sort_keys=False))
     library = workdir / "fuzz-library.h5"
     if not library.exists():
-        build_library(LibrarySpec.load(spec_path), library, workers=1, progress=LogProgress("fuzz", open(os.devnull, "w")))
+        with open(os.devnull, "w") as devnull:
+            build_library(LibrarySpec.load(spec_path), library, workers=1, progress=LogProgress("fuzz", devnull))
     lib = Library.open(library)
     plan = workdir / "fuzz-plan.h5"
     save_plan(plan, lib.trajectory(0), lib.crane, lib.scene)
@@ -516,7 +517,7 @@ def make_fixtures(workdir: Path) -> Fixtures:
     return Fixtures(library, plan, runlog, spec_path)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _shipped(crane: str) -> Any:
     """A shipped crane and the shipped scene laid out for it."""
     from motionlib.model.kinematics import Crane
