@@ -311,3 +311,18 @@ def test_library_embeds_its_crane_and_scene(reference, tiny_spec):
     lib = Library.open(out)
     assert lib.crane.model == spec.crane.model and lib.crane.model.digest == spec.crane.model.digest
     assert lib.scene.digest == spec.scene.digest
+
+
+@pytest.mark.slow
+def test_no_process_outlives_a_killed_build(tiny_spec, tmp_path):
+    """SIGKILL of `build --workers 2` alone (not its group): 5 s later none of its processes is alive."""
+    from orphans import survivors_after_kill
+
+    out = tmp_path / "orphans.h5"
+    parts = parts_dir_for(out)
+    n_seen, alive = survivors_after_kill(
+        [MOTIONLIB, "build", str(tiny_spec), "-o", str(out), "--workers", "2"], tmp_path / "build.log",
+        ready=lambda children: len(children) >= 2 and _count_parts(parts) >= 1,
+    )
+    assert n_seen >= 2  # the two pool workers (and the resource tracker) were running
+    assert alive == []
