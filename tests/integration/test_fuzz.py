@@ -5,7 +5,9 @@ benchmark script, imported here, so the test and the 10^6-input benchmark run th
 code. Every reader gets its share of a few thousand mutated inputs through the API (no
 exception other than :class:`motionlib.errors.MotionlibError`, no accepted file outside the
 documented ranges), and a smaller sample goes through the CLI commands that open the file
-(one line on error, never a traceback, never the "bug" exit status 70).
+(`crane show`, `scene check`, `view`, `inspect`, `select`, `execute --operator`, `analyze`: one
+line on error, never a traceback, never the "bug" exit status 70; spec files only through the
+API, as `build` would plan an accepted one).
 """
 
 from __future__ import annotations
@@ -27,8 +29,13 @@ N_CLI = 25  # per command below
 
 
 @pytest.fixture(scope="module")
-def readers(tmp_path_factory):
-    return fuzz.make_readers(fuzz.make_fixtures(tmp_path_factory.mktemp("fuzz-fixtures")))
+def fixtures(tmp_path_factory):
+    return fuzz.make_fixtures(tmp_path_factory.mktemp("fuzz-fixtures"))
+
+
+@pytest.fixture(scope="module")
+def readers(fixtures):
+    return fuzz.make_readers(fixtures)
 
 
 @pytest.mark.parametrize("name", list(N_API))
@@ -55,24 +62,29 @@ def test_range_check_catches_an_implausible_crane():
     assert any("boom_length" in v for v in fuzz.range_violations("crane", SimpleNamespace(model=model)))
 
 
-# Commands that open each kind of file; {} is the fuzzed file, {out} a scratch directory.
+# Commands that open each kind of file; {} is the fuzzed file, {out} a scratch directory, {lib}
+# the (good) fixture library. The target 0,3,0.9 is the end point of its first trajectory.
 COMMANDS = {
     "crane": ["crane", "show", "--crane", "{}", "--json"],
     "scene": ["scene", "check", "{}", "--json"],
     "plan": ["view", "{}", "-o", "{out}/plan.html"],
     "library": ["inspect", "{}", "--json"],
+    "library-select": ["select", "{}", "--target", "0,3,0.9", "--json"],
+    "script": ["execute", "{lib}", "--target", "0,3,0.9", "--operator", "{}", "--time-limit", "1", "--json"],
     "runlog": ["analyze", "{}", "--crane", "lab"],
 }
 
 
-@pytest.mark.parametrize("name", list(COMMANDS))
-def test_cli_never_prints_a_traceback_for_fuzzed_files(readers, name, tmp_path):
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_cli_never_prints_a_traceback_for_fuzzed_files(readers, fixtures, command, tmp_path):
+    name = command.split("-")[0]
     reader, index = readers[name], list(readers).index(name)
     runner = CliRunner()
     codes = set()
-    for i in range(N_CLI):
+    for i in range(N_CLI if name != "script" else 10):
         path = reader.make(SEED + 1, index, i, tmp_path)
-        args = [a.replace("{}", str(path)).replace("{out}", str(tmp_path)) for a in COMMANDS[name]]
+        args = [a.replace("{}", str(path)).replace("{out}", str(tmp_path)).replace("{lib}", str(fixtures.library))
+                for a in COMMANDS[command]]
         result = runner.invoke(cli, args)
         assert "Traceback" not in result.output, (args, result.output)
         assert result.exit_code != 70, (i, result.output)  # 70: the last line of defence caught a bug
@@ -81,3 +93,4 @@ def test_cli_never_prints_a_traceback_for_fuzzed_files(readers, name, tmp_path):
             assert len(result.stderr.strip().splitlines()) == 1, (i, result.stderr)
         codes.add(result.exit_code)
     assert codes - {0}, "no fuzzed input was rejected: the sample does not exercise the reader"
+    assert 0 in codes, "no fuzzed input was accepted: the command never got past the reader"
