@@ -104,6 +104,11 @@ def short(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
+def rounded(values: Any, digits: int = 6) -> list[float]:
+    """``values`` (a 1-d array) as a list of floats rounded for a message, without overflow at 1e308."""
+    return [round(float(x), digits) for x in np.ravel(values)]
+
+
 # ------------------------------------------------------------------ plausibility ranges
 @dataclass(frozen=True)
 class Plausible:

@@ -35,14 +35,8 @@ MAX_FILE_BYTES = 16 * 1024 * 1024
 PLAUSIBILITY = ("strict", "relaxed")
 
 
-class StrictLoader(yaml.SafeLoader):
-    """PyYAML's safe loader that rejects duplicate mapping keys and reports unbuildable values with their line.
-
-    A key given twice in one mapping is an error (``SafeLoader`` silently keeps the last);
-    keys merged in with ``<<`` may still be overridden, as YAML specifies. A value the
-    constructors cannot build (an integer of thousands of digits, a date like 2024-13-45)
-    is a ``ConstructorError`` at the value's line instead of a raw ``ValueError``.
-    """
+class _StrictConstruction:
+    """Duplicate keys and unbuildable values as ``ConstructorError`` (see :class:`StrictLoader`)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: dict[Any, int] = {}
@@ -62,16 +56,27 @@ class StrictLoader(yaml.SafeLoader):
                     f"duplicate key {short(key)} (first given at line {first + 1})", key_node.start_mark,
                 )
             seen[key] = key_node.start_mark.line
-        return super().construct_mapping(node, deep=deep)
+        return super().construct_mapping(node, deep=deep)  # type: ignore[misc]  # a mixin of the loader
 
     def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
         try:
-            return super().construct_object(node, deep=deep)
+            return super().construct_object(node, deep=deep)  # type: ignore[misc]  # a mixin of the loader
         except (ValueError, OverflowError, TypeError) as exc:
             what = str(exc)
             if node.tag == "tag:yaml.org,2002:int":
                 what = f"an integer of {len(str(node.value))} characters"
             raise ConstructorError(None, None, f"cannot read the value ({what[:100]})", node.start_mark) from exc
+
+
+class StrictLoader(_StrictConstruction, getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
+    """PyYAML's safe loader (libyaml's parser when available) that rejects duplicate mapping keys and
+    reports unbuildable values with their line.
+
+    A key given twice in one mapping is an error (``SafeLoader`` silently keeps the last);
+    keys merged in with ``<<`` may still be overridden, as YAML specifies. A value the
+    constructors cannot build (an integer of thousands of digits, a date like 2024-13-45)
+    is a ``ConstructorError`` at the value's line instead of a raw ``ValueError``.
+    """
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:

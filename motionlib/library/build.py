@@ -288,7 +288,10 @@ def _open_part(path: Path, entry: Entry) -> Iterator[tuple[EntryRecord, IndexRow
                 raise LibraryFileError(f"{path}: checkpoint is not of entry {entry.index} ({entry.key!r}) of this spec")
             ok = a["status"] == "ok"
             record = _record(entry, ok, str(a["stage"]), str(a["reason"]), float(a["plan_time_s"]))
-            row = IndexRow(**{k: read_array(f, f"row/{k}", str(path), 10**6) for k in _ROW_FIELDS}) if ok else None
+            row: IndexRow | None = None
+            if ok:
+                fields: dict[str, Any] = {k: read_array(f, f"row/{k}", str(path), 10**6) for k in _ROW_FIELDS}
+                row = IndexRow(**fields)
             group = f.get("trajectory") if ok else None
             if ok and not isinstance(group, h5py.Group):
                 raise LibraryFileError(f"{path}: checkpoint of an ok entry without a trajectory")

@@ -147,6 +147,8 @@ class LibrarySpec:
     motions : tuple of Motion
     source : str or None
         File the spec was read from.
+    plausibility : str
+        ``strict`` or ``relaxed`` (the file's ``plausibility`` key).
     """
 
     name: str
@@ -157,6 +159,7 @@ class LibrarySpec:
     planner: dict[str, Any] = field(default_factory=dict)
     motions: tuple[Motion, ...] = ()
     source: str | None = None
+    plausibility: str = "strict"
 
     # ------------------------------------------------------------------ reading
     @classmethod
@@ -179,7 +182,7 @@ class LibrarySpec:
 
         base = Path(base_dir)
         top = Section(data, file)
-        read_plausibility(top)
+        relaxed = read_plausibility(top)
         name = _nonempty(top, "name")
         description = top.string("description", "")
         scene_rel = _nonempty(top, "scene")
@@ -208,7 +211,8 @@ class LibrarySpec:
                 top.fail(f"motions[{i}].name", f"duplicate motion name {short(m)}")
         n_entries = sum(_count_entries(m, scene) for m in motions)
         top.check_plausible("motions", n_entries, MAX_ENTRIES, "the number of entries: ")
-        spec = cls(name, description, crane, scene, seed, planner, motions, None if file.startswith("<") else file)
+        spec = cls(name, description, crane, scene, seed, planner, motions, None if file.startswith("<") else file,
+                   "relaxed" if relaxed else "strict")
         spec.entries(file)  # reject duplicate entries now, naming the motion group
         return spec
 
@@ -247,6 +251,7 @@ class LibrarySpec:
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form, self-contained (crane and scene by name and digest; embedded separately)."""
         return {
+            **({"plausibility": self.plausibility} if self.plausibility != "strict" else {}),
             "name": self.name,
             "description": self.description,
             "crane": self.crane.name,

@@ -46,7 +46,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from ..checks import check_vector
+from ..checks import check_vector, rounded
 from ..errors import InputError, LibraryFileError
 from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors, path_exists, read_array, read_json_attr
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, crane_from_record
@@ -542,11 +542,9 @@ class Library:
         tol = ROW_TOLERANCE
         problems = []
         if not np.allclose(traj.q[0], self.start_q[i], rtol=0.0, atol=tol["start_q"]):
-            problems.append(f"starts at {np.round(traj.q[0], 6).tolist()}, index row {i} at "
-                            f"{np.round(self.start_q[i], 6).tolist()}")
+            problems.append(f"starts at {rounded(traj.q[0])}, index row {i} at {rounded(self.start_q[i])}")
         if not np.allclose(crane.fk(traj.q[-1]), self.end_p[i], rtol=0.0, atol=tol["end_p"]):
-            problems.append(f"ends at {np.round(crane.fk(traj.q[-1]), 6).tolist()} m, index row {i} at "
-                            f"{np.round(self.end_p[i], 6).tolist()} m")
+            problems.append(f"ends at {rounded(crane.fk(traj.q[-1]))} m, index row {i} at {rounded(self.end_p[i])} m")
         if not np.isclose(traj.duration_s, self.duration_s[i], rtol=tol["duration"], atol=0.0):
             problems.append(f"lasts {traj.duration_s!r} s, index row {i} {float(self.duration_s[i])!r} s")
         if problems:
@@ -675,16 +673,18 @@ def _read_index(path: Path, f: h5py.File, n: int, n_entries: int) -> dict[str, n
     group = f.get("index")
     if not isinstance(group, h5py.Group):
         raise LibraryFileError(f"{path}: corrupt library: group /index is missing")
-    k = None
+    k = 0
     arrays = {}
     where = f"{path}: corrupt library"
     for key, tail in INDEX_FIELDS.items():
         name = f"/index/{key}"
-        ds = group.get(key)
-        if key == "approach_p" and isinstance(ds, h5py.Dataset) and ds.ndim == 3:
+        ds = f.get(name)
+        if not isinstance(ds, h5py.Dataset):
+            raise LibraryFileError(f"{where}: dataset {name} is missing")
+        if key == "approach_p" and ds.ndim == 3:
             k = ds.shape[1]
         expected = tuple(n if d == "n" else (k if d == "k" else int(d)) for d in ("n", *tail))
-        if isinstance(ds, h5py.Dataset) and ds.shape != expected:
+        if ds.shape != expected:
             raise LibraryFileError(f"{where}: {name} has shape {ds.shape}, expected {expected}")
         data = read_array(f, name, where, max(1, int(np.prod(expected))), np.int64 if key == "entry" else np.float64)
         if key == "entry" and ds.dtype.kind not in "iu":

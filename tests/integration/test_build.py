@@ -8,7 +8,6 @@ same content (index arrays, entry table and trajectories; wall-clock records asi
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import io
 import json
 import os
@@ -33,60 +32,18 @@ from motionlib.library.spec import LibrarySpec
 from motionlib.planning.planner import Planner, PlanOptions
 from motionlib.progress import LogProgress, RichProgress
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import crash_safety  # noqa: E402 (benchmarks/crash_safety.py: the kill-and-resume cycles, the content digest)
+from crash_safety import content_digest  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[2]
 BIN = Path(sys.executable).parent
 MOTIONLIB = str(BIN / "motionlib")
 DASK = str(BIN / "dask")
 UNREACHABLE = [9.0, 0.0, 1.0]  # beyond the lab crane's 4.5 m reach
 
-TINY = {
-    "name": "tiny",
-    "crane": "lab",
-    "scene": str(ROOT / "obstacles" / "log-loading.yaml"),
-    "seed": 11,
-    "motions": [
-        {
-            "name": "out",
-            "starts": ["target-center"],
-            "targets": {"points": ["pickup-a", "pickup-b", "pickup-between", UNREACHABLE]},
-        },
-        {
-            "name": "back",
-            "loaded": True,
-            "starts": ["pickup-a", "pickup-b"],
-            "targets": {"points": ["target-center", [3.0, 0.4, 1.2]]},
-        },
-    ],
-}
+TINY = crash_safety.TINY
 N_ENTRIES = 8
-
-
-def content_digest(path: Path) -> str:
-    """SHA-256 over everything a build determines, read with plain h5py.
-
-    Every dataset and attribute, except the wall-clock records: the root ``build``
-    and ``spec`` (which holds the spec's file name) attributes, ``entries/plan_time_s``
-    and the trajectories' ``stages`` attribute (per-stage times).
-    """
-    h = hashlib.sha256()
-
-    def add_attrs(name: str, obj: h5py.HLObject) -> None:
-        for key in sorted(obj.attrs):
-            if (name == "/" and key in ("build", "spec")) or key == "stages":
-                continue
-            h.update(f"{name}@{key}={obj.attrs[key]!r}".encode())
-
-    def visit(name: str, obj: h5py.HLObject) -> None:
-        add_attrs(name, obj)
-        if isinstance(obj, h5py.Dataset) and name != "entries/plan_time_s":
-            h.update(name.encode())
-            data = obj.asstr()[()].tolist() if obj.dtype.kind == "O" else obj[()]
-            h.update(json.dumps(data).encode() if obj.dtype.kind == "O" else np.ascontiguousarray(data).tobytes())
-
-    with h5py.File(path, "r") as f:
-        add_attrs("/", f)
-        f.visititems(visit)
-    return h.hexdigest()
 
 
 @pytest.fixture(scope="module")
@@ -178,6 +135,14 @@ def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
     assert again.returncode == 1 and "--resume" in again.stderr and again.stderr.count("\n") == 1
     assert _count_parts(parts) == finished
+
+    # More SIGKILLs at seeded random moments, each run resumed; the output file holds another
+    # good library all along, which no kill may replace by a broken one (benchmarks/crash_safety.py: 20).
+    cycles = crash_safety.kill_resume_cycles(tiny_spec, out, reference[0], kills=3, seed=13, full_s=6.0)
+    assert sum(c.killed for c in cycles) == 3
+    assert all(c.output in ("old", "new") for c in cycles), cycles
+    assert all(c.parts_after >= c.parts_before for c in cycles if c.resumed and c.output == "old"), cycles
+    finished = _count_parts(parts)
 
     resumed = subprocess.run([*cmd, "--resume", "--workers", "2"], capture_output=True, text=True, timeout=300)
     assert resumed.returncode == 0, resumed.stderr
@@ -311,3 +276,18 @@ def test_library_embeds_its_crane_and_scene(reference, tiny_spec):
     lib = Library.open(out)
     assert lib.crane.model == spec.crane.model and lib.crane.model.digest == spec.crane.model.digest
     assert lib.scene.digest == spec.scene.digest
+
+
+@pytest.mark.slow
+def test_no_process_outlives_a_killed_build(tiny_spec, tmp_path):
+    """SIGKILL of `build --workers 2` alone (not its group): 5 s later none of its processes is alive."""
+    from orphans import survivors_after_kill
+
+    out = tmp_path / "orphans.h5"
+    parts = parts_dir_for(out)
+    n_seen, alive = survivors_after_kill(
+        [MOTIONLIB, "build", str(tiny_spec), "-o", str(out), "--workers", "2"], tmp_path / "build.log",
+        ready=lambda children: len(children) >= 2 and _count_parts(parts) >= 1,
+    )
+    assert n_seen >= 2  # the two pool workers (and the resource tracker) were running
+    assert alive == []

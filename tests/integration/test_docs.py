@@ -130,3 +130,31 @@ def test_model_your_own_crane_guide_works(tmp_path, monkeypatch):
     exec(compile(snippet, str(GUIDE), "exec"), namespace)
     crane = Crane.load(tmp_path / "my-crane.yaml")
     np.testing.assert_allclose(namespace["robot"].get_transform("tip")[:3, 3], crane.fk(namespace["q"]), atol=1e-9)
+
+
+def _fmt(x: float) -> str:
+    import math
+
+    for k, name in ((1, "pi"), (2, "2 pi"), (4, "4 pi")):
+        if abs(abs(x) - k * math.pi) < 1e-12:
+            return ("-" if x < 0 else "") + name
+    return f"{x:g}"
+
+
+def test_plausibility_tables_match_the_code():
+    """Each documented range (docs/*-format.md, library-spec.md) is the one the readers apply."""
+    from motionlib.library.spec import GRID_SPACING_M, MAX_ENTRIES, PLANNER_RANGES
+    from motionlib.model.crane_model import PLAUSIBLE as CRANE
+    from motionlib.model.scene import PLAUSIBLE as SCENE
+
+    docs = {"crane-format.md": CRANE, "scene-format.md": SCENE,
+            "library-spec.md": {"entries": MAX_ENTRIES, "grid spacing": GRID_SPACING_M, **PLANNER_RANGES}}
+    for doc, ranges in docs.items():
+        rows = {line.split("|")[1].strip(): line for line in (ROOT / "docs" / doc).read_text().splitlines()
+                if line.startswith("| `")}
+        for name, r in ranges.items():
+            row = rows.get(f"`{name}`")
+            assert row is not None, f"{doc}: no row for {name}"
+            cells = [c.strip() for c in row.split("|")]
+            expected = [f"[{_fmt(r.lo)}, {_fmt(r.hi)}]", f"[{_fmt(r.hard_lo)}, {_fmt(r.hard_hi)}]"]
+            assert cells[3:5] == expected, (doc, row)

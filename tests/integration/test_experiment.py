@@ -341,3 +341,27 @@ def test_results_do_not_depend_on_the_number_of_workers(tiny):
     for a, b in zip(one.results, two.results, strict=True):
         assert a.finished and b.finished
         assert [(c.cycle_time_s, c.total_jerk) for c in a.cycles] == [(c.cycle_time_s, c.total_jerk) for c in b.cycles]
+
+
+@pytest.mark.slow
+def test_no_process_outlives_a_killed_experiment(tiny, tmp_path: Path):
+    """SIGKILL of `experiment log-loading --workers 2` alone: 5 s later none of its processes is alive."""
+    import sys
+    import time
+
+    from orphans import survivors_after_kill
+
+    spec, lib = tiny
+    started: list[float] = []
+
+    def ready(children) -> bool:  # both workers up, and a second into their runs
+        if len(children) < 2:
+            return False
+        started.append(time.monotonic())
+        return started[-1] - started[0] > 1.0
+
+    args = [str(Path(sys.executable).parent / "motionlib"), "experiment", "log-loading", "--operators", "O1,O3",
+            "--modes", "M1,M6", "--series", "1", "--cycles", "1", "--workers", "2", "--library", str(lib),
+            "--out", str(tmp_path / "out")]
+    n_seen, alive = survivors_after_kill(args, tmp_path / "experiment.log", ready)
+    assert n_seen >= 2 and alive == []

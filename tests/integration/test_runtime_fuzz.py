@@ -1,0 +1,34 @@
+"""A fixed sample of benchmarks/runtime_fuzz.py: random, stuck, silent and absent operator input in M1-M6.
+
+The invariants (finite command within the velocity and acceleration limits, joints inside
+their limits, no end-stop hit) are counted step by step by the benchmark's own checks;
+tests/integration/test_controller_safety.py states them as hypothesis properties.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import runtime_fuzz  # noqa: E402
+
+
+def test_fixed_sample_of_operator_sequences_violates_nothing():
+    counts = runtime_fuzz.run_range(seed=20261123, start=0, stop=60)
+    for mode, row in counts.items():
+        assert row[0] == 10 and row[1] > 10 * 50, (mode, row)  # every mode got its sequences, and they ran
+        violations = dict(zip(runtime_fuzz.VIOLATIONS, row[2:], strict=True))
+        assert not any(violations.values()), (mode, violations)
+
+
+def test_the_checks_see_a_violation(monkeypatch):
+    """A controller whose command jumps past the limits is counted: the checks are not vacuous."""
+    from motionlib.runtime.controller import SharedController
+
+    step = SharedController.step
+    monkeypatch.setattr(SharedController, "step", lambda self, state, inp: np.asarray(step(self, state, inp)) + 10)
+    _, _, bad = runtime_fuzz.run_sequence(1, 0)
+    assert bad["velocity"] > 0 and bad["acceleration"] > 0
