@@ -13,11 +13,15 @@ from motionlib.runtime.contact import ContactParams, GroundContact
 from motionlib.runtime.control_types import OperatorInput
 from motionlib.runtime.controller import SharedController
 from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.plant import SimulatedCrane
+from motionlib.runtime.plant import SimParams, SimulatedCrane
 from motionlib.runtime.sources import CartesianJoystick
 
 DT = 0.005
 BOUND_N = 3000.0
+#: The accommodation gains of gains_for_bound assume joints that follow their command (the
+#: first-order plant); on the second-order plant (oil compliance, 2.5 Hz) the force loop rings
+#: and overshoots the bound (10 kN measured): gains for it are not derived yet (docs/frames-and-sources.md).
+FIRST_ORDER = SimParams(model="first_order")
 PUSH = (0.0, 0.0, 0.0, -1.0)  # right stick fully down: the grapple into the ground
 
 
@@ -26,7 +30,7 @@ def _push_into_ground(
 ):
     """M4 (manual Cartesian): the stick pushes down from ``height_m`` above the ground; returns (contact, forces)."""
     q0 = crane.ik([2.5, 0.4, crane.model.grapple_length + height_m], 0.3)
-    sim = SimulatedCrane(crane, q0)
+    sim = SimulatedCrane(crane, q0, FIRST_ORDER)
     ctrl = SharedController(crane, "M4")
     if accommodation is not None:
         ctrl.add_source(accommodation)
@@ -87,7 +91,7 @@ def test_stick_on_the_log_end_and_accommodation_at_once(lab):
     acc = AccommodationSource(AccommodationSource.gains_for_bound(1500.0, 0.2, margin=0.8))
     ctrl.add_source(acc)
     contact = GroundContact(ContactParams(ground_z=0.0))
-    sim = SimulatedCrane(lab, lab.ik([2.2, -0.6, lab.model.grapple_length], 0.2, q1_ref=-0.3))
+    sim = SimulatedCrane(lab, lab.ik([2.2, -0.6, lab.model.grapple_length], 0.2, q1_ref=-0.3), FIRST_ORDER)
     axes = (0.5, 0.0, 0.0, -1.0)
     samples = []
     for k in range(int(round(5.0 / DT))):
