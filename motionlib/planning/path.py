@@ -289,11 +289,56 @@ def _ompl_plan(
     opts: PathOptions,
     diag: dict[str, Any],
 ) -> tuple[np.ndarray | None, str]:
-    """Run OMPL; return (waypoints (n, 3) or None if no exact solution, OMPL status string)."""
+    """Run OMPL in the tip space; return (waypoints (n, 3) or None if no exact solution, OMPL status string)."""
+    return solve_ompl(
+        start,
+        goal,
+        opts.lower_m,
+        opts.upper_m,
+        is_valid,
+        planner=opts.planner,
+        time_limit_s=opts.time_limit_s,
+        seed=int(opts.seed),
+        resolution=opts.validity_resolution_m,
+        simplify=opts.simplify,
+        diag=diag,
+    )
+
+
+def solve_ompl(
+    start: np.ndarray,
+    goal: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    is_valid: Callable[[np.ndarray], bool],
+    *,
+    planner: str,
+    time_limit_s: float,
+    seed: int,
+    resolution: float,
+    simplify: bool,
+    diag: dict[str, Any],
+) -> tuple[np.ndarray | None, str]:
+    """Plan a polyline from ``start`` to ``goal`` (d,) in the box ``[lower, upper]`` (d,) with OMPL.
+
+    ``RealVectorStateSpace(d)``, ``SimpleSetup``, the named geometric planner, the process-wide
+    seed reset to ``seed + 1`` under the module lock; straight motions are checked at points at
+    most ``resolution`` (units of the space) apart. Only an exact solution is returned, shortcut
+    by ``simplifySolution`` when ``simplify``. Fills ``planning_time_s``, ``simplify_time_s``,
+    ``n_raw_waypoints``, ``n_waypoints`` of ``diag``.
+
+    Returns
+    -------
+    waypoints : ndarray, shape (n, d), or None
+        None when OMPL found no exact solution.
+    status : str
+        OMPL's planner status name.
+    """
+    dim = int(start.shape[0])
 
     def ompl_valid(state: Any) -> bool:
         # nanobind converts only a Python bool back to C++ bool (np.bool_ gives std::bad_cast)
-        return bool(is_valid(np.array(state[0:3])))
+        return bool(is_valid(np.array(state[0:dim])))
 
     with _OMPL_LOCK:
         previous_level = ou.getLogLevel()
@@ -301,35 +346,35 @@ def _ompl_plan(
             # reseeding after OMPL has created generators logs an error, but does reseed the
             # seed generator, which is what determinism needs; silence that one message
             ou.setLogLevel(ou.LOG_NONE)
-            ou.RNG.setSeed(int(opts.seed) + 1)
+            ou.RNG.setSeed(seed + 1)
             ou.setLogLevel(ou.LOG_WARN)
 
-            space = ob.RealVectorStateSpace(3)
-            bounds = ob.RealVectorBounds(3)
-            bounds.low = list(opts.bounds[0])
-            bounds.high = list(opts.bounds[1])
+            space = ob.RealVectorStateSpace(dim)
+            bounds = ob.RealVectorBounds(dim)
+            bounds.low = [float(v) for v in lower]
+            bounds.high = [float(v) for v in upper]
             space.setBounds(bounds)
             setup = og.SimpleSetup(space)
             setup.setStateValidityChecker(ompl_valid)
             si = setup.getSpaceInformation()
-            si.setStateValidityCheckingResolution(min(1.0, opts.validity_resolution_m / space.getMaximumExtent()))
+            si.setStateValidityCheckingResolution(min(1.0, resolution / space.getMaximumExtent()))
             s_state, g_state = space.allocState(), space.allocState()
-            s_state[0:3] = start.tolist()
-            g_state[0:3] = goal.tolist()
+            s_state[0:dim] = start.tolist()
+            g_state[0:dim] = goal.tolist()
             setup.setStartAndGoalStates(s_state, g_state)
-            setup.setPlanner(getattr(og, opts.planner)(si))
+            setup.setPlanner(getattr(og, planner)(si))
 
-            status = setup.solve(float(opts.time_limit_s))
+            status = setup.solve(float(time_limit_s))
             diag["planning_time_s"] = float(setup.getLastPlanComputationTime())
             status_name = status.getStatus().name
             if not setup.haveExactSolutionPath():
                 return None, status_name
             diag["n_raw_waypoints"] = int(setup.getSolutionPath().getStateCount())
-            if opts.simplify:
+            if simplify:
                 setup.simplifySolution()  # duration 0: simplify until no further improvement
                 diag["simplify_time_s"] = float(setup.getLastSimplificationTime())
             path = setup.getSolutionPath()
-            waypoints = np.array([s[0:3] for s in path.getStates()], dtype=np.float64)
+            waypoints = np.array([s[0:dim] for s in path.getStates()], dtype=np.float64)
         finally:
             ou.setLogLevel(previous_level)
     diag["n_waypoints"] = int(waypoints.shape[0])

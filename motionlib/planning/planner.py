@@ -36,12 +36,15 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_vector
-from ..errors import PlanningError, UnreachableError
+from ..errors import InputError, PlanningError, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import limits_for
 from ..model.scene import Scene
-from .path import PathOptions, PathStatus, plan_tip_path
+from .joint_to_tip import tip_path_from_joint_path
+from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
+from .lower_bound import best_goal_telescope, lower_bound_s
+from .path import PathOptions, PathStatus, plan_tip_path, spline_check_grid
 from .redundancy import (
     RedundancyOptions,
     RedundancyStatus,
@@ -49,7 +52,8 @@ from .redundancy import (
     joint_path,
     optimise_telescope,
 )
-from .timing import TimingStatus, time_scale
+from .spline import TipSpline
+from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
 from .verification import Verifier
 
@@ -64,6 +68,11 @@ class PlanStatus(Enum):
     TIMING_FAILED = "timing"
     VERIFICATION_FAILED = "verification"
 
+
+#: Name of the tip-space path candidate (today's OMPL tip path).
+TIP_SOURCE = "tip-rrt"
+#: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
+JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400))
@@ -96,6 +105,11 @@ class PlanOptions:
     verify_tip_spacing_m : float
         Largest tip motion (m) between two configurations of the collision re-check.
     redundancy : RedundancyOptions
+    jointspace : JointPathOptions
+        Joint-space path search (candidates and the joint-space baseline).
+    goal_telescopes : int
+        Goal telescope values of the joint-space paths: the one of the smallest lower bound, and
+        ``goal_telescopes - 1`` more spread over the stroke.
     """
 
     loaded: bool = False
@@ -108,6 +122,19 @@ class PlanOptions:
     dt_s: float = 1.0 / 200.0
     verify_tip_spacing_m: float = 0.01
     redundancy: RedundancyOptions = field(default_factory=RedundancyOptions)
+    jointspace: JointPathOptions = field(default_factory=JointPathOptions)
+    goal_telescopes: int = 3
+
+
+@dataclass
+class _Candidate:
+    """One candidate tip path with its telescope profiles: ``q_paths`` holds the usable ones on ``s_grid``."""
+
+    spline: TipSpline
+    s_grid: np.ndarray
+    profiles: dict[str, TelescopeProfile]
+    q_paths: dict[str, np.ndarray]
+    rejected: dict[str, str]
 
 
 @dataclass
@@ -124,8 +151,12 @@ class PlanResult:
     stages : dict of str to StageReport
         What each stage that ran did: status, time and diagnostics.
     baselines : dict of str to float or None
-        ``constant`` and ``linear``: TOPPRA durations (s) of the same path with
-        a constant and a linearly interpolated telescope (None if infeasible).
+        ``constant`` and ``linear``: TOPPRA durations (s) of the tip-space path with
+        a constant and a linearly interpolated telescope; ``jointspace``: the verified
+        joint-space baseline (None if infeasible or not run).
+    lower_bound_s : float
+        Lower bound on any verified duration of the query (s,
+        :func:`~motionlib.planning.lower_bound.lower_bound_s`); NaN if not computed.
     """
 
     status: PlanStatus
@@ -133,6 +164,7 @@ class PlanResult:
     trajectory: Trajectory | None = None
     stages: dict[str, StageReport] = field(default_factory=dict)
     baselines: dict[str, float | None] = field(default_factory=dict)
+    lower_bound_s: float = math.nan
 
     @property
     def ok(self) -> bool:
@@ -162,7 +194,7 @@ class Planner:
         o = self.options
         self._path_checker = CollisionChecker(crane, scene, margin=o.clearance_m)
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
-        self.limits = limits_for(crane)
+        self.limits = limits_for(crane)  # the same objects time, verify and bound every candidate and baseline
         self.verifier = Verifier(crane, scene, self.limits, o.loaded, o.verify_tip_spacing_m)
         self._exact_checker = self.verifier.checker
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
@@ -266,90 +298,133 @@ class Planner:
                 f"the arm comes within {o.arm_clearance_m} m of an obstacle",
             )
         start_p = crane.fk(start_q)
+        lower_bound = lower_bound_s(crane, self.limits, start_q, goal_p)
+        candidates: dict[str, _Candidate] = {}
+        rejected_sources: dict[str, str] = {}
 
-        # 1. Path.
+        # 1a. Tip-space path (today's source, kept so the result is never slower than it).
         lower, upper = self._bounds()
         path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
         stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
-        if path.status is not PathStatus.OK or path.spline is None:
-            return fail(PlanStatus.PATH_FAILED, path.reason)
-        spline = path.spline
+        t_redundancy = 0.0
+        red_details: dict[str, Any] = {}
+        if path.status is PathStatus.OK and path.spline is not None:
+            t0 = time.perf_counter()
+            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_q, None)
+            t_redundancy += time.perf_counter() - t0
+        else:
+            rejected_sources[TIP_SOURCE] = path.reason
 
-        # 2. Redundancy: the optimised profile and the two baselines, screened for the joint
-        #    limits and arm clearance (a verified result, with fallbacks when none is clear).
+        # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
+        #     candidates in the product's shape (tip spline of their forward kinematics).
         t0 = time.perf_counter()
-        red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy)
-        if red.status is not RedundancyStatus.OK or red.profile is None:
-            stages["redundancy"] = StageReport(red.status.value, time.perf_counter() - t0, dict(red.diagnostics))
-            return fail(PlanStatus.REDUNDANCY_FAILED, red.reason)
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
-        p_grid = spline(s_grid)
-        degree = o.redundancy.degree
-        candidates = {
-            "optimised": red.profile,
-            "constant": TelescopeProfile.constant(start_q[3], spline.length, degree),
-            "linear": TelescopeProfile.linear(start_q[3], red.profile.control_points[-1], spline.length, degree),
-        }
-        q_paths, rejected = self._screen(candidates, spline, s_grid, p_grid, start_q[0])
-        if not q_paths:
-            ends = np.linspace(crane.q_min[3], crane.q_max[3], 5)
-            fallbacks = {
-                f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
-                for end in ends
-            }
-            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
-            rejected.update(more)
-            candidates.update(fallbacks)
-        stages["redundancy"] = StageReport(
-            red.status.value, time.perf_counter() - t0, {**red.diagnostics, "rejected": rejected}
+        joint_paths, joint_details = self._joint_paths(start_q, goal_p)
+        baseline_js = jointspace_baseline(crane, joint_paths, self.limits, self.verifier, o.dt_s)
+        stages["jointspace"] = StageReport(
+            "ok" if joint_paths else "failed",
+            time.perf_counter() - t0,
+            {**joint_details, "baseline_durations_s": baseline_js.durations_s, "verified": baseline_js.verified},
         )
-        if not q_paths:
-            reasons = sorted(set(rejected.values()))
+        t0 = time.perf_counter()
+        for name, q_wp in joint_paths.items():
+            try:
+                spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
+            except InputError as exc:
+                rejected_sources[name] = str(exc)
+                continue
+            s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
+            if not all(self._grapple_valid(p) for p in spline(s_chk)):
+                rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
+                continue
+            candidates[name], red_details[name] = self._candidate(spline, start_q, initial)
+        t_redundancy += time.perf_counter() - t0
+        stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
+        baselines: dict[str, float | None] = {"constant": None, "linear": None}
+        if not candidates:
+            if TIP_SOURCE in rejected_sources and not joint_paths:
+                return fail(PlanStatus.PATH_FAILED, rejected_sources[TIP_SOURCE])
+            reasons = "; ".join(f"{k}: {v}" for k, v in rejected_sources.items())
+            return fail(PlanStatus.REDUNDANCY_FAILED, "no path candidate is usable: " + reasons)
+        usable = {k: c for k, c in candidates.items() if c.q_paths}
+        if not usable:
+            reasons = sorted({r for c in candidates.values() for r in c.rejected.values()})
             return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(reasons))
 
-        # 3-4. Timing of every usable profile, then dense verification of the fastest. TOPPRA
-        #    enforces its constraints at grid points only; if the samples between them overshoot
-        #    a limit by more than the 1 % tolerance, all profiles are re-timed under a safety
-        #    factor on a denser grid (baselines included, so the comparison stays fair).
-        t_timing = t_verify = 0.0
-        for scale, min_grid in TIMING_ATTEMPTS:
-            t0 = time.perf_counter()
-            limits = limits_for(crane, scale)
-            timings = {
-                name: time_scale(s_grid, q, limits, dt=o.dt_s, min_gridpoints=min_grid) for name, q in q_paths.items()
-            }
-            timed = {name: r for name, r in timings.items() if r.status is TimingStatus.OK}
-            baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}
-            t_timing += time.perf_counter() - t0
-            timing_details: dict[str, Any] = {
-                "safety_factor": scale,
-                "min_gridpoints": min_grid,
-                "durations_s": {k: v.duration_s for k, v in timed.items()},
-                "rejected": {k: r.reason for k, r in timings.items() if k not in timed},
-            }
-            if not timed:
-                stages["timing"] = StageReport("failed", t_timing, timing_details)
-                reasons = "; ".join(f"{k}: {v}" for k, v in timing_details["rejected"].items())
-                return fail(PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", baselines)
-            chosen = min(timed, key=lambda k: timed[k].duration_s)
-            timing = timed[chosen]
-            stages["timing"] = StageReport("ok", t_timing, {**timing_details, "profile": chosen})
-            t0 = time.perf_counter()
-            report = self.verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
-            t_verify += time.perf_counter() - t0
-            stages["verification"] = StageReport(
-                "ok" if report.ok else "failed", t_verify, {"problems": report.problems[:10]}
-            )
-            if report.ok or report.collisions:
+        # 2-3. Timing of every usable (candidate, profile), then dense verification, fastest first,
+        #    until no unverified one can beat the best verified. TOPPRA enforces its constraints at
+        #    grid points only; if the samples between them overshoot a limit by more than the 1 %
+        #    tolerance, that path is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
+        t0 = time.perf_counter()
+        first_scale, first_grid = TIMING_ATTEMPTS[0]
+        timings: dict[tuple[str, str], TimingResult] = {}
+        for cname, cand in usable.items():
+            for pname, q in cand.q_paths.items():
+                timings[cname, pname] = time_scale(cand.s_grid, q, self.limits, dt=o.dt_s, min_gridpoints=first_grid)
+        timed = {key: r for key, r in timings.items() if r.status is TimingStatus.OK}
+        if TIP_SOURCE in usable:
+            tip = {pname: timed.get((TIP_SOURCE, pname)) for pname in ("constant", "linear")}
+            baselines = {k: (r.duration_s if r is not None else None) for k, r in tip.items()}
+        t_timing = time.perf_counter() - t0
+        timing_details: dict[str, Any] = {
+            "durations_s": {f"{c}/{p}": r.duration_s for (c, p), r in timed.items()},
+            "rejected": {f"{c}/{p}": r.reason for (c, p), r in timings.items() if (c, p) not in timed},
+        }
+        if not timed:
+            stages["timing"] = StageReport("failed", t_timing, timing_details)
+            reasons = "; ".join(f"{k}: {v}" for k, v in timing_details["rejected"].items())
+            return fail(PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", baselines)
+        best: tuple[tuple[str, str], TimingResult] | None = None
+        outcomes: dict[str, dict[str, Any]] = {}
+        first_problem = ""
+        t_verify = 0.0
+        for key in sorted(timed, key=lambda k: timed[k].duration_s):
+            if best is not None and timed[key].duration_s >= best[1].duration_s:
                 break
-        if not report.ok:
-            return fail(PlanStatus.VERIFICATION_FAILED, report.problems[0], baselines)
+            cand = usable[key[0]]
+            timing = timed[key]
+            for attempt, (scale, min_grid) in enumerate(TIMING_ATTEMPTS):
+                if attempt:
+                    t1 = time.perf_counter()
+                    timing = time_scale(
+                        cand.s_grid, cand.q_paths[key[1]], limits_for(crane, scale), dt=o.dt_s, min_gridpoints=min_grid
+                    )
+                    t_timing += time.perf_counter() - t1
+                    if not timing.ok:
+                        break
+                t1 = time.perf_counter()
+                report = self.verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
+                t_verify += time.perf_counter() - t1
+                if report.ok or report.collisions:
+                    break
+            label = f"{key[0]}/{key[1]}"
+            outcomes[label] = {
+                "duration_s": timing.duration_s if timing.ok else math.nan,
+                "verified": bool(timing.ok and report.ok),
+                "safety_factor": scale,
+                "problems": report.problems[:3],
+            }
+            if timing.ok and report.ok:
+                if best is None or timing.duration_s < best[1].duration_s:
+                    best = (key, timing)
+            elif not first_problem:
+                first_problem = f"{label}: " + (report.problems[0] if report.problems else timing.reason)
+        stages["timing"] = StageReport("ok", t_timing, {**timing_details, "safety_factor": first_scale})
+        stages["verification"] = StageReport("ok" if best else "failed", t_verify, {"candidates": outcomes})
+        if best is None:
+            return fail(PlanStatus.VERIFICATION_FAILED, first_problem, baselines)
+        (source, chosen), timing = best
+        cand = usable[source]
+        stages["candidates"] = StageReport(
+            "ok",
+            0.0,
+            {"source": source, "profile": chosen, "sources": sorted(candidates), "rejected_sources": rejected_sources},
+        )
 
         info = TrajectoryInfo(
             duration_s=timing.duration_s,
-            path_length_m=float(spline.length),
+            path_length_m=float(cand.spline.length),
             energy_m3=self.verifier.oil_volume_m3(timing.t, timing.qd),
             min_clearance_m=self.verifier.min_clearance(timing.q),
             crane=crane.name,
@@ -361,8 +436,11 @@ class Planner:
             loaded=o.loaded,
             seed=o.seed,
             profile=chosen,
+            path_source=source,
             baseline_constant_s=_nan_if_none(baselines["constant"]),
             baseline_linear_s=_nan_if_none(baselines["linear"]),
+            baseline_jointspace_s=baseline_js.duration_s,
+            lower_bound_s=lower_bound,
             stages=dict(stages),
             limits=self.verifier.limits_record(o.clearance_m, o.arm_clearance_m),
         )
@@ -371,15 +449,86 @@ class Planner:
             q=timing.q,
             qd=timing.qd,
             qdd=timing.qdd,
-            path_s=s_grid,
-            path_tip=p_grid,
-            waypoints=spline.waypoints,
-            spline_breakpoints=spline.breakpoints,
-            spline_coefficients=spline.coefficients,
-            telescope_control_points=candidates[chosen].control_points,
+            path_s=cand.s_grid,
+            path_tip=cand.spline(cand.s_grid),
+            waypoints=cand.spline.waypoints,
+            spline_breakpoints=cand.spline.breakpoints,
+            spline_coefficients=cand.spline.coefficients,
+            telescope_control_points=cand.profiles[chosen].control_points,
             info=info,
         )
-        return PlanResult(PlanStatus.OK, "", traj, stages, baselines)
+        baselines["jointspace"] = None if math.isnan(baseline_js.duration_s) else baseline_js.duration_s
+        return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
+
+    def _config_valid(self, q: np.ndarray) -> bool:
+        """Joint-space validity under the tip planner's rules: within the joint limits, the arm keeps
+        ``arm_clearance_m`` and the grapple (and log) ``clearance_m`` from the scene."""
+        loaded = self.options.loaded
+        return bool(
+            self.crane.within_limits(q)
+            and not self._arm_checker.in_collision(q, loaded)
+            and not self._path_checker.tip_in_collision(self.crane.fk(q), loaded)
+        )
+
+    def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Joint paths to ``goal_telescopes`` goal configurations: the one with the smallest lower bound
+        first, then values spread over the stroke. Returns paths by name ``joint-<source>-q4=<value>``
+        and diagnostics (the reasons of the goals without a path)."""
+        crane, o = self.crane, self.options
+        q4_lo, q4_hi = float(crane.q_min[3]), float(crane.q_max[3])
+        telescopes = [best_goal_telescope(crane, self.limits, start_q, goal_p)]
+        telescopes += list(q4_lo + (q4_hi - q4_lo) * (np.arange(1, o.goal_telescopes) / o.goal_telescopes))
+        paths: dict[str, np.ndarray] = {}
+        failed: dict[str, str] = {}
+        for q4 in telescopes:
+            if not np.isfinite(q4):
+                continue
+            q_goal, ok = crane.ik_batch(goal_p[None, :], np.array([q4]), q1_ref=float(start_q[0]))
+            if not ok[0]:
+                failed[f"q4={q4:.2f}"] = "unreachable"
+                continue
+            res = plan_joint_path(crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed)
+            if res.ok:
+                paths[f"joint-{res.source}-q4={q4:.2f}"] = res.waypoints
+            else:
+                failed[f"q4={q4:.2f}"] = res.reason
+        return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
+
+    def _candidate(
+        self, spline: TipSpline, start_q: np.ndarray, initial: TelescopeProfile | None
+    ) -> tuple[_Candidate, dict[str, Any]]:
+        """Telescope profiles on one tip path, screened (see :meth:`_screen`).
+
+        The tip-space path (``initial`` None) gets the optimised profile and the constant and
+        linear baselines; a path from a joint path gets the optimised profile started from its
+        fitted profile, and the fitted profile itself. When none is usable, linear fallback
+        profiles are tried.
+        """
+        crane, o = self.crane, self.options
+        degree = o.redundancy.degree
+        red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
+        profiles: dict[str, TelescopeProfile] = {}
+        if red.status is RedundancyStatus.OK and red.profile is not None:
+            profiles["optimised"] = red.profile
+        if initial is None:
+            end = red.profile.control_points[-1] if red.profile is not None else start_q[3]
+            profiles["constant"] = TelescopeProfile.constant(start_q[3], spline.length, degree)
+            profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+        else:
+            profiles["fitted"] = initial
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
+        p_grid = spline(s_grid)
+        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0])
+        if not q_paths:
+            fallbacks = {
+                f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+                for end in np.linspace(crane.q_min[3], crane.q_max[3], 5)
+            }
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
+            rejected.update(more)
+            profiles.update(fallbacks)
+        details = {**red.diagnostics, "status": red.status.value, "reason": red.reason, "rejected": rejected}
+        return _Candidate(spline, s_grid, profiles, q_paths, rejected), details
 
     def _screen(
         self, profiles: dict[str, TelescopeProfile], spline: Any, s_grid: np.ndarray, p_grid: np.ndarray, q1: float

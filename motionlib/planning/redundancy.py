@@ -127,6 +127,21 @@ class TelescopeProfile:
         # Equally spaced control points give an exactly linear Bézier polynomial.
         return cls(np.linspace(start, end, degree + 1), length_m)
 
+    @classmethod
+    def fit(
+        cls, s_m: np.ndarray, q4: np.ndarray, degree: int, q_min: float, q_max: float, q4_start: float | None = None
+    ) -> TelescopeProfile:
+        """Least-squares Bézier fit of telescope values ``q4`` (n,) m at arc lengths ``s_m`` (n,) m (0 to the length).
+
+        The control points are clipped to ``[q_min, q_max]``; the first is set to ``q4_start`` when given.
+        """
+        length = float(s_m[-1])
+        basis, _ = _bernstein(degree, np.asarray(s_m, dtype=np.float64) / length)
+        ctrl, *_ = np.linalg.lstsq(basis, np.asarray(q4, dtype=np.float64), rcond=None)
+        if q4_start is not None:
+            ctrl[0] = q4_start
+        return cls(np.clip(ctrl, q_min, q_max), length)
+
 
 @dataclass
 class RedundancyResult:
@@ -346,11 +361,7 @@ def initial_profile(
         options = grid[feasible[i]]
         previous = options[np.argmin(np.abs(options - previous))]
         chosen[i] = previous
-    basis, _ = _bernstein(degree, s_m / s_m[-1])
-    ctrl, *_ = np.linalg.lstsq(basis, chosen, rcond=None)
-    if q4_start is not None:
-        ctrl[0] = q4_start
-    return TelescopeProfile(np.clip(ctrl, crane.q_min[3], crane.q_max[3]), float(s_m[-1]))
+    return TelescopeProfile.fit(s_m, chosen, degree, crane.q_min[3], crane.q_max[3], q4_start)
 
 
 class PathLike(Protocol):
