@@ -461,8 +461,9 @@ def _repair_waypoints(
     invalid (where OMPL's segment clips an obstacle between its checks) and
     points within ``REPAIR_MIN_SEPARATION_M`` of a waypoint are skipped.
     """
-    w = spline.waypoints
-    s_w = spline.waypoint_s
+    w, s_w = spline.waypoints, spline.waypoint_s
+    if w is None or s_w is None:
+        raise InputError("spline repair needs a spline fitted through waypoints (TipSpline.from_waypoints)")
     n_seg = w.shape[0] - 1
     idx = np.flatnonzero(bad)
     runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
@@ -475,14 +476,14 @@ def _repair_waypoints(
             # mirror across the nearer corner onto the neighbouring segment
             corner, other = (j, j - 1) if t < 0.5 else (j + 1, j + 1)
             if 0 < corner < n_seg and 0 <= other < n_seg:
-                dist = (t if t < 0.5 else 1.0 - t) * np.linalg.norm(w[j + 1] - w[j])
+                dist = (t if t < 0.5 else 1.0 - t) * float(np.linalg.norm(w[j + 1] - w[j]))
                 leg = float(np.linalg.norm(w[other + 1] - w[other]))
                 d = min(dist, 0.5 * leg)
                 new.append((other, 1.0 - d / leg if other == j - 1 else d / leg))
     points = [w[j] + t * (w[j + 1] - w[j]) for j, t in new]
     keys = [j + t for j, t in new]
     # merge with the existing waypoints in path order, skipping near-duplicates
-    merged_keys = list(range(w.shape[0]))
+    merged_keys = [float(i) for i in range(w.shape[0])]
     merged_pts = list(w)
     for key, p in sorted(zip(keys, points, strict=True), key=lambda kp: kp[0]):
         pos = int(np.searchsorted(merged_keys, key))

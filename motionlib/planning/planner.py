@@ -69,6 +69,11 @@ class PlanStatus(Enum):
     VERIFICATION_FAILED = "verification"
 
 
+#: Version of the planning pipeline, stored in every library build: a change that gives different
+#: trajectories for the same spec bumps it, so libraries built before are rebuilt.
+#: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins.
+PLANNER_VERSION = 2
+
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
@@ -110,6 +115,9 @@ class PlanOptions:
     goal_telescopes : int
         Goal telescope values of the joint-space paths: the one of the smallest lower bound, and
         ``goal_telescopes - 1`` more spread over the stroke.
+    joint_candidates : bool
+        Plan joint-space paths (candidates and the joint-space baseline); False gives the
+        tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
     """
 
     loaded: bool = False
@@ -124,6 +132,7 @@ class PlanOptions:
     redundancy: RedundancyOptions = field(default_factory=RedundancyOptions)
     jointspace: JointPathOptions = field(default_factory=JointPathOptions)
     goal_telescopes: int = 3
+    joint_candidates: bool = True
 
 
 @dataclass
@@ -228,15 +237,16 @@ class Planner:
                 return True
         return False
 
-    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def _bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """Lower and upper corners (m) of the tip-space box: the crane's reach around the column, above the ground."""
         m = self.crane.model
         reach = (
             m.boom_pivot_offset
             + m.boom_length
             + float(np.hypot(m.jib_length + self.crane.q_max[3], m.telescope_offset))
         )
-        z_low = self.scene.ground_z + m.grapple_length
-        return np.array([-reach, -reach, z_low]), np.array([reach, reach, m.column_height + reach])
+        z_low = float(self.scene.ground_z + m.grapple_length)
+        return (-reach, -reach, z_low), (reach, reach, float(m.column_height + reach))
 
     def _goal_unreachable_reason(self, goal: np.ndarray) -> str:
         # The message of the IK at full extension says why (beyond reach, too close, joint limit).
@@ -303,8 +313,7 @@ class Planner:
         rejected_sources: dict[str, str] = {}
 
         # 1a. Tip-space path (today's source, kept so the result is never slower than it).
-        lower, upper = self._bounds()
-        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
+        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=self._bounds())
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
         stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
@@ -320,7 +329,7 @@ class Planner:
         # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
         #     candidates in the product's shape (tip spline of their forward kinematics).
         t0 = time.perf_counter()
-        joint_paths, joint_details = self._joint_paths(start_q, goal_p)
+        joint_paths, joint_details = self._joint_paths(start_q, goal_p) if o.joint_candidates else ({}, {})
         baseline_js = jointspace_baseline(crane, joint_paths, self.limits, self.verifier, o.dt_s)
         stages["jointspace"] = StageReport(
             "ok" if joint_paths else "failed",
@@ -349,8 +358,8 @@ class Planner:
             return fail(PlanStatus.REDUNDANCY_FAILED, "no path candidate is usable: " + reasons)
         usable = {k: c for k, c in candidates.items() if c.q_paths}
         if not usable:
-            reasons = sorted({r for c in candidates.values() for r in c.rejected.values()})
-            return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(reasons))
+            profile_reasons = sorted({r for c in candidates.values() for r in c.rejected.values()})
+            return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(profile_reasons))
 
         # 2-3. Timing of every usable (candidate, profile), then dense verification, fastest first,
         #    until no unverified one can beat the best verified. TOPPRA enforces its constraints at
@@ -451,7 +460,7 @@ class Planner:
             qdd=timing.qdd,
             path_s=cand.s_grid,
             path_tip=cand.spline(cand.s_grid),
-            waypoints=cand.spline.waypoints,
+            waypoints=_waypoints(cand.spline),
             spline_breakpoints=cand.spline.breakpoints,
             spline_coefficients=cand.spline.coefficients,
             telescope_control_points=cand.profiles[chosen].control_points,
@@ -502,21 +511,23 @@ class Planner:
         The tip-space path (``initial`` None) gets the optimised profile and the constant and
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
-        profiles are tried.
+        profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
+        is kept under ``optimised``).
         """
         crane, o = self.crane, self.options
         degree = o.redundancy.degree
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
-        profiles: dict[str, TelescopeProfile] = {}
-        if red.status is RedundancyStatus.OK and red.profile is not None:
-            profiles["optimised"] = red.profile
+        details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
+        if red.status is not RedundancyStatus.OK or red.profile is None:  # the candidate fails with its NLP
+            return _Candidate(spline, s_grid, {}, {}, {"optimised": red.reason}), details
+        profiles = {"optimised": red.profile}
         if initial is None:
-            end = red.profile.control_points[-1] if red.profile is not None else start_q[3]
+            end = red.profile.control_points[-1]
             profiles["constant"] = TelescopeProfile.constant(start_q[3], spline.length, degree)
             profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
         else:
             profiles["fitted"] = initial
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / 0.1)) + 1))
         p_grid = spline(s_grid)
         q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0])
         if not q_paths:
@@ -527,8 +538,7 @@ class Planner:
             q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
             rejected.update(more)
             profiles.update(fallbacks)
-        details = {**red.diagnostics, "status": red.status.value, "reason": red.reason, "rejected": rejected}
-        return _Candidate(spline, s_grid, profiles, q_paths, rejected), details
+        return _Candidate(spline, s_grid, profiles, q_paths, rejected), {**details, "rejected": rejected}
 
     def _screen(
         self, profiles: dict[str, TelescopeProfile], spline: Any, s_grid: np.ndarray, p_grid: np.ndarray, q1: float
@@ -559,6 +569,11 @@ class Planner:
             else:
                 usable[name] = q_grid
         return usable, rejected
+
+
+def _waypoints(spline: TipSpline) -> np.ndarray:
+    """The points (n, 3) the spline was fitted through; its breakpoints' points when it was built from arrays."""
+    return spline.waypoints if spline.waypoints is not None else spline(spline.breakpoints)
 
 
 def _nan_if_none(value: float | None) -> float:

@@ -252,7 +252,10 @@ def test_cli_plan_json_and_file(tmp_path):
     summary = json.loads(r.output)
     for key in ("duration_s", "path_length_m", "baseline_constant_s", "baseline_linear_s", "stage_times_s", "output"):
         assert key in summary
-    assert set(summary["stage_times_s"]) == {"path", "redundancy", "timing", "verification"}
+    assert set(summary["stage_times_s"]) == {"path", "jointspace", "redundancy", "timing", "verification", "candidates"}
+    assert 0.0 < summary["lower_bound_s"] <= summary["duration_s"]
+    assert summary["baseline_jointspace_s"] is None or summary["baseline_jointspace_s"] >= summary["lower_bound_s"]
+    assert summary["path_source"] == load_plan(out).info.path_source
     traj = load_plan(out)
     assert traj.duration_s == pytest.approx(summary["duration_s"])
     with h5py.File(out) as f:
