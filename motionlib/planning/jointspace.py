@@ -8,11 +8,11 @@ simplifier. Planning is done in time-scaled coordinates ``x_i = q_i / v_i`` with
 smaller of a joint's two velocity limits, so that OMPL's Euclidean shortcuts shorten the
 velocity-limited motion time rather than a mix of radians and metres.
 
-:func:`time_joint_path` times a joint polyline with the planner's own
-:func:`~motionlib.planning.timing.time_scale` (the polyline is first subdivided joint-linearly so
-that TOPPRA's cubic spline follows it) and :func:`jointspace_baseline` keeps the fastest of
-several such paths that passes the planner's own :class:`~.verification.Verifier`: the
-joint-space baseline ``baseline_jointspace_s`` every plan reports.
+:func:`joint_path_parameter` prepares a joint polyline for TOPPRA (subdivided joint-linearly so
+that TOPPRA's cubic spline follows it) and :func:`jointspace_baseline` times several such paths
+with the planner's own :func:`~motionlib.planning.timing.time_scale` attempts and keeps the fastest
+that passes the planner's own :class:`~.verification.Verifier`: the joint-space baseline
+``baseline_jointspace_s`` every plan reports.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ import numpy as np
 from ..model.kinematics import Crane
 from ..model.limits import Limit
 from .path import solve_ompl
-from .timing import TimingResult, time_scale
-from .verification import Verifier
+from .timing import time_scale
+from .verification import Verifier, time_and_verify
 
 
 class JointPathStatus(enum.Enum):
@@ -55,12 +55,16 @@ class JointPathOptions:
         the velocity limits); 0.01 s is at most 4.5 mrad of slew on the shipped cranes.
     subdivide_s : float
         Spacing (time-scaled units, s) of the joint-linear subdivision before timing.
+    shortcut_only : bool
+        Simplify with OMPL's vertex reduction and shortcuts only, without B-spline smoothing (the
+        joint path becomes a tip spline anyway).
     """
 
     planner: str = "RRTConnect"
     time_limit_s: float = 0.5
     resolution_s: float = 0.01
     subdivide_s: float = 0.05
+    shortcut_only: bool = True
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +152,7 @@ def plan_joint_path(
         resolution=options.resolution_s,
         simplify=True,
         diag=diag,
+        shortcut_only=options.shortcut_only,
     )
     if waypoints is None:
         return JointPathResult(
@@ -162,18 +167,23 @@ def plan_joint_path(
     return JointPathResult(JointPathStatus.OK, "", q, options.planner, diag)
 
 
-def time_joint_path(
-    crane: Crane, q_wp: np.ndarray, limits: Sequence[Limit], dt: float, options: JointPathOptions = JointPathOptions()
-) -> TimingResult:
-    """TOPPRA timing (:func:`~motionlib.planning.timing.time_scale`) of a joint polyline (n, 4).
+def joint_path_parameter(
+    crane: Crane, q_wp: np.ndarray, options: JointPathOptions = JointPathOptions()
+) -> tuple[np.ndarray, np.ndarray]:
+    """A joint polyline (n, 4) ready for TOPPRA: subdivided every ``options.subdivide_s`` (time-scaled
+    units), so TOPPRA's spline stays on it, and parametrised by its time-scaled length.
 
-    The polyline is subdivided every ``options.subdivide_s`` (time-scaled units) and
-    parametrised by its time-scaled length, so TOPPRA's spline stays on it.
+    Returns
+    -------
+    s : ndarray, shape (K,)
+        Path parameter (s of motion at the velocity limits, strictly increasing).
+    q : ndarray, shape (K, 4)
+        Joint waypoints (rad, m).
     """
     scale = time_scales(crane)
     q = subdivide(q_wp, options.subdivide_s, scale)
     s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0) / scale, axis=1))])
-    return time_scale(s, q, limits, dt=dt)
+    return s, q
 
 
 @dataclass(frozen=True)
@@ -185,7 +195,8 @@ class JointSpaceBaseline:
     duration_s : float
         Fastest verified duration (s); NaN when no joint path could be timed and verified.
     durations_s : dict of str to float
-        Per joint path (named by the caller): its TOPPRA duration (s), NaN when timing failed.
+        Per joint path (named by the caller): its TOPPRA duration (s) under the first attempt's
+        limits, NaN when timing failed.
     verified : dict of str to bool
         Per joint path that was verified (fastest first, up to the first that passes): the outcome.
     """
@@ -194,26 +205,37 @@ class JointSpaceBaseline:
     durations_s: dict[str, float]
     verified: dict[str, bool]
 
+    def fastest(self, n: int) -> list[str]:
+        """Names of the ``n`` joint paths with the shortest first-attempt durations (timed ones only)."""
+        timed = [k for k, v in self.durations_s.items() if np.isfinite(v)]
+        return sorted(timed, key=lambda k: self.durations_s[k])[:n]
+
 
 def jointspace_baseline(
-    crane: Crane, paths: dict[str, np.ndarray], limits: Sequence[Limit], verifier: Verifier, dt: float
+    crane: Crane,
+    paths: dict[str, np.ndarray],
+    attempts: Sequence[tuple[Sequence[Limit], int]],
+    verifier: Verifier,
+    dt: float,
 ) -> JointSpaceBaseline:
-    """Time every joint path (n, 4) under ``limits`` and verify it with ``verifier``; keep the fastest verified.
+    """Time every joint path (n, 4) and verify the fastest first until one passes
+    (:func:`~motionlib.planning.verification.time_and_verify`).
 
-    The planner passes its own limit objects and verifier, so the baseline is held to exactly
-    the rules of the main pipeline.
+    The planner passes its own timing attempts (its limit objects and grid sizes) and verifier,
+    so the baseline is held to exactly the rules of the main pipeline.
     """
-    durations: dict[str, float] = {}
-    timed: dict[str, TimingResult] = {}
-    for name, q_wp in paths.items():
-        res = time_joint_path(crane, q_wp, limits, dt)
-        durations[name] = res.duration_s
-        if res.ok:
-            timed[name] = res
+    prepared = {name: joint_path_parameter(crane, q_wp) for name, q_wp in paths.items()}
+    limits, min_grid = attempts[0]
+    first = {name: time_scale(s, q, limits, dt=dt, min_gridpoints=min_grid) for name, (s, q) in prepared.items()}
+    durations = {name: r.duration_s for name, r in first.items()}
+    timed = [name for name, r in first.items() if r.ok]
     verified: dict[str, bool] = {}
-    for name in sorted(timed, key=lambda k: timed[k].duration_s):  # fastest first; stop at the first verified
-        res = timed[name]
-        verified[name] = verifier.verify(res.t, res.q, res.qd, res.qdd).ok
+    best = math.inf
+    for name in sorted(timed, key=lambda k: durations[k]):
+        if best <= durations[name]:  # re-timing only slows a path down: no slower one can win
+            break
+        timing, report, _ = time_and_verify(*prepared[name], attempts, verifier, dt, first=first[name])
+        verified[name] = bool(timing.ok and report is not None and report.ok)
         if verified[name]:
-            return JointSpaceBaseline(res.duration_s, durations, verified)
-    return JointSpaceBaseline(math.nan, durations, verified)
+            best = min(best, timing.duration_s)
+    return JointSpaceBaseline(best if np.isfinite(best) else math.nan, durations, verified)

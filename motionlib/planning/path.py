@@ -318,14 +318,17 @@ def solve_ompl(
     resolution: float,
     simplify: bool,
     diag: dict[str, Any],
+    shortcut_only: bool = False,
 ) -> tuple[np.ndarray | None, str]:
     """Plan a polyline from ``start`` to ``goal`` (d,) in the box ``[lower, upper]`` (d,) with OMPL.
 
     ``RealVectorStateSpace(d)``, ``SimpleSetup``, the named geometric planner, the process-wide
     seed reset to ``seed + 1`` under the module lock; straight motions are checked at points at
     most ``resolution`` (units of the space) apart. Only an exact solution is returned, shortcut
-    by ``simplifySolution`` when ``simplify``. Fills ``planning_time_s``, ``simplify_time_s``,
-    ``n_raw_waypoints``, ``n_waypoints`` of ``diag``.
+    by ``simplifySolution`` when ``simplify`` (until no further improvement), or with
+    ``shortcut_only`` by the path simplifier's ``reduceVertices`` and ``ropeShortcutPath`` alone (no
+    B-spline smoothing, which is most of the cost when validity checks are expensive). Fills
+    ``planning_time_s``, ``simplify_time_s``, ``n_raw_waypoints``, ``n_waypoints`` of ``diag``.
 
     Returns
     -------
@@ -370,10 +373,17 @@ def solve_ompl(
             if not setup.haveExactSolutionPath():
                 return None, status_name
             diag["n_raw_waypoints"] = int(setup.getSolutionPath().getStateCount())
-            if simplify:
+            path = setup.getSolutionPath()
+            if simplify and shortcut_only:
+                t0 = time.perf_counter()
+                simplifier = setup.getPathSimplifier()
+                simplifier.reduceVertices(path)
+                simplifier.ropeShortcutPath(path)
+                diag["simplify_time_s"] = time.perf_counter() - t0
+            elif simplify:
                 setup.simplifySolution()  # duration 0: simplify until no further improvement
                 diag["simplify_time_s"] = float(setup.getLastSimplificationTime())
-            path = setup.getSolutionPath()
+                path = setup.getSolutionPath()
             waypoints = np.array([s[0:dim] for s in path.getStates()], dtype=np.float64)
         finally:
             ou.setLogLevel(previous_level)

@@ -39,7 +39,7 @@ from ..checks import check_vector
 from ..errors import InputError, PlanningError, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import limits_for
+from ..model.limits import Limit, limits_for
 from ..model.scene import Scene
 from .joint_to_tip import tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
@@ -52,10 +52,11 @@ from .redundancy import (
     joint_path,
     optimise_telescope,
 )
+from .shape import ShapeStatus, optimise_shape
 from .spline import TipSpline
 from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
-from .verification import Verifier
+from .verification import Verifier, time_and_verify
 
 
 class PlanStatus(Enum):
@@ -118,6 +119,8 @@ class PlanOptions:
     joint_candidates : bool
         Plan joint-space paths (candidates and the joint-space baseline); False gives the
         tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
+    joint_candidates_max : int
+        How many joint paths (the fastest in joint space) become candidates in the product's shape.
     """
 
     loaded: bool = False
@@ -133,6 +136,7 @@ class PlanOptions:
     jointspace: JointPathOptions = field(default_factory=JointPathOptions)
     goal_telescopes: int = 3
     joint_candidates: bool = True
+    joint_candidates_max: int = 2
 
 
 @dataclass
@@ -204,6 +208,10 @@ class Planner:
         self._path_checker = CollisionChecker(crane, scene, margin=o.clearance_m)
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
         self.limits = limits_for(crane)  # the same objects time, verify and bound every candidate and baseline
+        #: (limits, least TOPPRA grid size) per timing attempt, shared by candidates and the joint-space baseline
+        self.timing_attempts: list[tuple[list[Limit], int]] = [
+            (self.limits if scale == 1.0 else limits_for(crane, scale), grid) for scale, grid in TIMING_ATTEMPTS
+        ]
         self.verifier = Verifier(crane, scene, self.limits, o.loaded, o.verify_tip_spacing_m)
         self._exact_checker = self.verifier.checker
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
@@ -330,14 +338,28 @@ class Planner:
         #     candidates in the product's shape (tip spline of their forward kinematics).
         t0 = time.perf_counter()
         joint_paths, joint_details = self._joint_paths(start_q, goal_p) if o.joint_candidates else ({}, {})
-        baseline_js = jointspace_baseline(crane, joint_paths, self.limits, self.verifier, o.dt_s)
+        baseline_js = jointspace_baseline(crane, joint_paths, self.timing_attempts, self.verifier, o.dt_s)
         stages["jointspace"] = StageReport(
             "ok" if joint_paths else "failed",
             time.perf_counter() - t0,
             {**joint_details, "baseline_durations_s": baseline_js.durations_s, "verified": baseline_js.verified},
         )
         t0 = time.perf_counter()
-        for name, q_wp in joint_paths.items():
+        shapes: dict[str, dict[str, Any]] = {}
+        t_shape = 0.0
+        for name in baseline_js.fastest(o.joint_candidates_max):  # the fastest joint paths become candidates
+            q_wp = joint_paths[name]
+            t1 = time.perf_counter()
+            shape = optimise_shape(crane, q_wp, self._config_valid, self.limits)
+            t_shape += time.perf_counter() - t1
+            shapes[name] = {
+                "status": shape.status.value,
+                "estimate_before_s": shape.estimate_before_s,
+                "estimate_after_s": shape.estimate_after_s,
+                "evaluations": shape.evaluations,
+            }
+            if shape.status is ShapeStatus.IMPROVED:
+                name, q_wp = f"{name}+shape", shape.waypoints
             try:
                 spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
             except InputError as exc:
@@ -348,7 +370,8 @@ class Planner:
                 rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
                 continue
             candidates[name], red_details[name] = self._candidate(spline, start_q, initial)
-        t_redundancy += time.perf_counter() - t0
+        t_redundancy += time.perf_counter() - t0 - t_shape
+        stages["shape"] = StageReport("ok", t_shape, shapes)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
         baselines: dict[str, float | None] = {"constant": None, "linear": None}
         if not candidates:
@@ -366,11 +389,11 @@ class Planner:
         #    grid points only; if the samples between them overshoot a limit by more than the 1 %
         #    tolerance, that path is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
         t0 = time.perf_counter()
-        first_scale, first_grid = TIMING_ATTEMPTS[0]
+        first_limits, first_grid = self.timing_attempts[0]
         timings: dict[tuple[str, str], TimingResult] = {}
         for cname, cand in usable.items():
             for pname, q in cand.q_paths.items():
-                timings[cname, pname] = time_scale(cand.s_grid, q, self.limits, dt=o.dt_s, min_gridpoints=first_grid)
+                timings[cname, pname] = time_scale(cand.s_grid, q, first_limits, dt=o.dt_s, min_gridpoints=first_grid)
         timed = {key: r for key, r in timings.items() if r.status is TimingStatus.OK}
         if TIP_SOURCE in usable:
             tip = {pname: timed.get((TIP_SOURCE, pname)) for pname in ("constant", "linear")}
@@ -392,34 +415,25 @@ class Planner:
             if best is not None and timed[key].duration_s >= best[1].duration_s:
                 break
             cand = usable[key[0]]
-            timing = timed[key]
-            for attempt, (scale, min_grid) in enumerate(TIMING_ATTEMPTS):
-                if attempt:
-                    t1 = time.perf_counter()
-                    timing = time_scale(
-                        cand.s_grid, cand.q_paths[key[1]], limits_for(crane, scale), dt=o.dt_s, min_gridpoints=min_grid
-                    )
-                    t_timing += time.perf_counter() - t1
-                    if not timing.ok:
-                        break
-                t1 = time.perf_counter()
-                report = self.verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
-                t_verify += time.perf_counter() - t1
-                if report.ok or report.collisions:
-                    break
+            t1 = time.perf_counter()
+            timing, report, attempt = time_and_verify(
+                cand.s_grid, cand.q_paths[key[1]], self.timing_attempts, self.verifier, o.dt_s, first=timed[key]
+            )
+            t_verify += time.perf_counter() - t1
+            ok = bool(timing.ok and report is not None and report.ok)
             label = f"{key[0]}/{key[1]}"
+            problems = report.problems if report is not None else [timing.reason]
             outcomes[label] = {
                 "duration_s": timing.duration_s if timing.ok else math.nan,
-                "verified": bool(timing.ok and report.ok),
-                "safety_factor": scale,
-                "problems": report.problems[:3],
+                "verified": ok,
+                "safety_factor": TIMING_ATTEMPTS[attempt][0],
+                "problems": problems[:3],
             }
-            if timing.ok and report.ok:
-                if best is None or timing.duration_s < best[1].duration_s:
-                    best = (key, timing)
-            elif not first_problem:
-                first_problem = f"{label}: " + (report.problems[0] if report.problems else timing.reason)
-        stages["timing"] = StageReport("ok", t_timing, {**timing_details, "safety_factor": first_scale})
+            if ok and (best is None or timing.duration_s < best[1].duration_s):
+                best = (key, timing)
+            elif not ok and not first_problem:
+                first_problem = f"{label}: {problems[0]}"
+        stages["timing"] = StageReport("ok", t_timing, timing_details)
         stages["verification"] = StageReport("ok" if best else "failed", t_verify, {"candidates": outcomes})
         if best is None:
             return fail(PlanStatus.VERIFICATION_FAILED, first_problem, baselines)
@@ -428,7 +442,12 @@ class Planner:
         stages["candidates"] = StageReport(
             "ok",
             0.0,
-            {"source": source, "profile": chosen, "sources": sorted(candidates), "rejected_sources": rejected_sources},
+            {
+                "source": source,
+                "profile": chosen,
+                "sources": sorted(candidates),
+                "rejected_sources": rejected_sources,
+            },
         )
 
         info = TrajectoryInfo(

@@ -130,9 +130,9 @@ def test_jointspace_baseline_uses_the_planner_limits_and_verifier(lab, lab_scene
     seen = {}
     real_baseline, real_time_scale = jointspace.jointspace_baseline, jointspace.time_scale
 
-    def spy_baseline(crane, paths, limits, verifier, dt):
-        seen["baseline"] = (limits, verifier)
-        return real_baseline(crane, paths, limits, verifier, dt)
+    def spy_baseline(crane, paths, attempts, verifier, dt):
+        seen["baseline"] = (attempts, verifier)
+        return real_baseline(crane, paths, attempts, verifier, dt)
 
     def spy_time_scale(s, q, limits, dt=1 / 200, **kw):
         seen.setdefault("time_scale", []).append(limits)
@@ -143,10 +143,11 @@ def test_jointspace_baseline_uses_the_planner_limits_and_verifier(lab, lab_scene
     p = Planner(lab, lab_scene, PlanOptions(seed=3))
     res = p.plan(lab_scene.start("target-center"), lab_scene.point("pickup-a"))
     assert res.ok
-    limits, verifier = seen["baseline"]
-    assert limits is p.limits and verifier is p.verifier
+    attempts, verifier = seen["baseline"]
+    assert attempts is p.timing_attempts and attempts[0][0] is p.limits and verifier is p.verifier
     assert all(a is b for a, b in zip(verifier.limits, p.limits, strict=True))
     assert seen["time_scale"] and all(lim is p.limits for lim in seen["time_scale"])
+    assert res.baselines["jointspace"] is not None  # timed and verified
 
 
 def test_optimised_profile_beats_baselines_on_velocity_limited_time(results):
@@ -252,7 +253,15 @@ def test_cli_plan_json_and_file(tmp_path):
     summary = json.loads(r.output)
     for key in ("duration_s", "path_length_m", "baseline_constant_s", "baseline_linear_s", "stage_times_s", "output"):
         assert key in summary
-    assert set(summary["stage_times_s"]) == {"path", "jointspace", "redundancy", "timing", "verification", "candidates"}
+    assert set(summary["stage_times_s"]) == {
+        "path",
+        "jointspace",
+        "shape",
+        "redundancy",
+        "timing",
+        "verification",
+        "candidates",
+    }
     assert 0.0 < summary["lower_bound_s"] <= summary["duration_s"]
     assert summary["baseline_jointspace_s"] is None or summary["baseline_jointspace_s"] >= summary["lower_bound_s"]
     assert summary["path_source"] == load_plan(out).info.path_source
