@@ -1,27 +1,40 @@
 """The offline planning pipeline: start configuration + goal point -> verified trajectory.
 
-Stages (each its own module, each returning a result with a status):
+The objective is motion time. Path candidates come from several sources, each is brought into
+the product's shape (an arc-length cubic-spline tip path and a Bézier telescope profile), timed
+and verified, and the fastest verified one wins (each stage is its own module and returns a
+result with a status):
 
-1. ``path`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
-   with OMPL, simplified and fitted with an arc-length cubic spline, repaired
-   where the spline overshoots into an obstacle. A tip state is valid when the
-   grapple (and log) keeps its clearance and some telescope extension reaches it
-   inside the workspace with the whole arm clear.
-2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the
-   minimum-time Bézier telescope profile (CasADi + IPOPT). It and the two
-   baselines (a constant and a linearly interpolated telescope) are screened for
-   the joint limits and whole-arm clearance; if none passes, linear fallback
-   profiles are tried. The trajectory records which profile was used.
-3. ``timing`` (:mod:`motionlib.planning.timing`): TOPPRA under direction-dependent
-   velocity, acceleration and shared-pump flow limits, at rest at both ends,
-   for every usable profile; the fastest is kept, so the result is never slower
-   than a usable baseline.
-4. ``verification``: the 200 Hz samples are re-checked for every limit (1 %
-   tolerance) and for collisions at <= 1 cm tip spacing with the collision
-   module. When samples between TOPPRA's grid points overshoot a limit, every
-   profile is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
+1. candidates:
 
-:func:`plan` never raises for a planning failure: it returns a
+   * ``tip-rrt`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
+     with OMPL, simplified, fitted with an arc-length cubic spline and repaired where the spline
+     overshoots. A tip state is valid when the grapple (and log) keeps its clearance and some
+     telescope extension reaches it inside the workspace with the whole arm clear. Kept as a
+     candidate, so the result is never slower than the tip-shortest path.
+   * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
+     RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
+     configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
+     are timed and verified as the joint-space baseline; the ``joint_candidates_max`` fastest
+     are shape-optimised (:mod:`motionlib.planning.shape`) and turned into tip splines with a
+     fitted telescope profile (:mod:`motionlib.planning.joint_to_tip`).
+
+2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the minimum-time
+   Bézier telescope profile (CasADi + IPOPT) on every candidate; on ``tip-rrt`` also the
+   constant and linear telescope baselines, on joint candidates their fitted profile. Profiles
+   are screened for the joint limits and whole-arm clearance; if none passes, linear fallback
+   profiles are tried.
+3. ``timing`` (:mod:`motionlib.planning.timing`): TOPPRA under direction-dependent velocity,
+   acceleration and shared-pump flow limits, at rest at both ends, for every usable
+   (candidate, profile).
+4. ``verification``: fastest first, until none left could beat the best verified: the 200 Hz
+   samples are re-checked for every limit (1 % tolerance) and for collisions at <= 1 cm tip
+   spacing; when samples between TOPPRA's grid points overshoot a limit, that path is re-timed
+   under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
+   which source won (also ``TrajectoryInfo.path_source``).
+
+Every plan reports the pump-aware lower bound and the joint-space baseline beside the
+telescope baselines. :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
 """
 
@@ -347,10 +360,11 @@ class Planner:
         t0 = time.perf_counter()
         shapes: dict[str, dict[str, Any]] = {}
         t_shape = 0.0
+        sources: dict[str, np.ndarray] = {}
         for name in baseline_js.fastest(o.joint_candidates_max):  # the fastest joint paths become candidates
-            q_wp = joint_paths[name]
+            sources[name] = joint_paths[name]
             t1 = time.perf_counter()
-            shape = optimise_shape(crane, q_wp, self._config_valid, self.limits)
+            shape = optimise_shape(crane, joint_paths[name], self._config_valid, self.limits)
             t_shape += time.perf_counter() - t1
             shapes[name] = {
                 "status": shape.status.value,
@@ -358,8 +372,9 @@ class Planner:
                 "estimate_after_s": shape.estimate_after_s,
                 "evaluations": shape.evaluations,
             }
-            if shape.status is ShapeStatus.IMPROVED:
-                name, q_wp = f"{name}+shape", shape.waypoints
+            if shape.status is ShapeStatus.IMPROVED:  # a candidate beside the unshaped one
+                sources[f"{name}+shape"] = shape.waypoints
+        for name, q_wp in sources.items():
             try:
                 spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
             except InputError as exc:
