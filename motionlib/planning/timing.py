@@ -45,7 +45,6 @@ from ..errors import InputError, PlanningError
 from ..model.crane_model import JOINT_NAMES
 from ..model.limits import N_JOINTS, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit, Limit
 
-
 #: Longest duration (s) :func:`time_scale` samples: far beyond any crane motion; a longer timing
 #: (e.g. from near-zero limits) is rejected before millions of samples are made and verified.
 MAX_DURATION_S = 600.0
