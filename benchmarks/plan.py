@@ -1,10 +1,16 @@
 """Planning benchmark: the full pipeline on a fixed set of queries.
 
-Run ``python benchmarks/plan.py`` (single process, one core). It plans 24
-queries on ``forwarder-site`` (bunk to both log piles and back, over the stakes)
-and 10 on ``log-loading`` (go out to the pick-up areas, go back to the target
-area), then prints per query and in total: success, per-stage time, duration
-and the ratio to both baselines (constant and linearly interpolated telescope).
+Run ``python benchmarks/plan.py`` (single process, one core). It plans 38
+queries on ``forwarder-site`` (bunk to both log piles and back, over the stakes;
+from points over both pile regions to the bunk-drop centre with a log) and 10 on
+``log-loading`` (go out to the pick-up areas, go back to the target area), then
+prints per query and in total: success, per-stage time, duration, the path source
+that won, and the ratios of the duration to the joint-space baseline, to the
+pump-aware lower bound and to both telescope baselines (constant and linearly
+interpolated telescope on the tip-space path). ``--compare-old`` also plans every
+query with the tip-space path alone (the pipeline before joint-space candidates,
+``PlanOptions(joint_candidates=False)``) in the same run and prints the duration
+and compute-time ratios new / old.
 
 The NLP of the redundancy stage is built once per crane (as in a library
 build); that one-off build time is reported separately and excluded from the
@@ -24,7 +30,6 @@ from motionlib.model.kinematics import Crane
 from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions
-from motionlib.planning.redundancy import TelescopeProfile, joint_path, velocity_limited_time
 from motionlib.planning.timing import time_scale
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,33 +44,44 @@ def grid(region, nx: int, ny: int, z_offset: float = 0.0) -> list[np.ndarray]:
     return [np.array([x, y, z]) for x in xs for y in ys]
 
 
-def forwarder_queries(scene: Scene) -> list[tuple[str, str, np.ndarray, bool]]:
-    """24 queries: bunk-center -> 6 points on each pile; each pile start -> 6 bunk points (loaded)."""
+#: Telescope (m) of the start configurations over the pile regions (as the scene's named pile starts).
+PILE_START_TELESCOPE_M = 1.0
+
+
+def forwarder_queries(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
+    """38 queries: bunk-center -> 6 points over each pile; each pile start -> 6 bunk points (loaded);
+    each pile start and 6 points over each pile region -> the bunk-drop centre (loaded)."""
     out = []
     for pile in ("pile-left", "pile-right"):
         for i, p in enumerate(grid(scene.region(pile), 3, 2)):
-            out.append((f"bunk->{pile}#{i}", "bunk-center", p, False))
+            out.append((f"bunk->{pile}#{i}", scene.start("bunk-center"), p, False))
     for pile in ("pile-left", "pile-right"):
         for i, p in enumerate(grid(scene.region("bunk"), 3, 2, z_offset=0.8)):
-            out.append((f"{pile}->bunk#{i}", pile, p, True))
+            out.append((f"{pile}->bunk#{i}", scene.start(pile), p, True))
+    drop = np.asarray(scene.region("bunk-drop").center)
+    for pile in ("pile-left", "pile-right"):
+        start = scene.start(pile)
+        out.append((f"{pile}->drop", start, drop, True))
+        for i, p in enumerate(grid(scene.region(pile), 3, 2)):
+            q = crane.ik(p, PILE_START_TELESCOPE_M, q1_ref=float(start[0]))
+            out.append((f"{pile}#{i}->drop", q, drop, True))
     return out
 
 
-def log_loading_queries(scene: Scene) -> list[tuple[str, str, np.ndarray, bool]]:
+def log_loading_queries(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
     """10 queries: go out from the target area (5) and go back to it loaded (5)."""
+    target, pick_a, pick_b = (scene.start(n) for n in ("target-center", "pickup-a", "pickup-b"))
     out = [
-        ("out->pickup-a", "target-center", scene.point("pickup-a"), False),
-        ("out->pickup-b", "target-center", scene.point("pickup-b"), False),
-        ("out->between", "target-center", scene.point("pickup-between"), False),
+        ("out->pickup-a", target, scene.point("pickup-a"), False),
+        ("out->pickup-b", target, scene.point("pickup-b"), False),
+        ("out->between", target, scene.point("pickup-between"), False),
     ]
+    out += [(f"out->pickup-a#{i}", target, p, False) for i, p in enumerate(grid(scene.region("pickup-a"), 2, 1))]
     out += [
-        (f"out->pickup-a#{i}", "target-center", p, False) for i, p in enumerate(grid(scene.region("pickup-a"), 2, 1))
+        ("back<-pickup-a", pick_a, scene.point("target-center"), True),
+        ("back<-pickup-b", pick_b, scene.point("target-center"), True),
     ]
-    out += [
-        ("back<-pickup-a", "pickup-a", scene.point("target-center"), True),
-        ("back<-pickup-b", "pickup-b", scene.point("target-center"), True),
-    ]
-    out += [(f"back<-pickup-a#{i}", "pickup-a", p, True) for i, p in enumerate(grid(scene.region("target"), 3, 1))]
+    out += [(f"back<-pickup-a#{i}", pick_a, p, True) for i, p in enumerate(grid(scene.region("target"), 3, 1))]
     return out
 
 
@@ -86,42 +102,47 @@ def slew_bound_s(crane: Crane, traj) -> float:
     return res.duration_s if res.ok else float("nan")
 
 
-def phase_plane_ratio(crane: Crane, traj) -> float:
-    """Velocity-limited time (003 eq. 4.12) of the used profile over that of the constant telescope."""
-    s, tip, q0 = traj.path_s, traj.path_tip, traj.q[0]
-    times = []
-    for ctrl in (traj.telescope_control_points, np.full(2, q0[3])):
-        q, ok = joint_path(crane, tip, TelescopeProfile(ctrl, float(s[-1])), s, q0[0])
-        times.append(velocity_limited_time(crane, q, s) if ok.all() else float("nan"))
-    return times[0] / times[1]
-
-
-def run(scene_file: str, crane_name: str, queries_fn, seed: int) -> list[dict]:
+def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bool) -> list[dict]:
     crane = Crane.load(crane_name)
     scene = Scene.load(ROOT / scene_file)
-    planners = {loaded: Planner(crane, scene, PlanOptions(loaded=loaded, seed=seed)) for loaded in (False, True)}
+    variants = {"new": True, "old": False} if compare_old else {"new": True}
+    planners = {
+        (v, loaded): Planner(crane, scene, PlanOptions(loaded=loaded, seed=seed, joint_candidates=joint))
+        for v, joint in variants.items()
+        for loaded in (False, True)
+    }
+    queries = queries_fn(crane, scene)
     # Build the NLP once (as a library build does) on a throw-away query.
     t0 = time.perf_counter()
-    first = queries_fn(scene)[0]
-    planners[first[3]].plan(scene.start(first[1]), first[2])
+    first = queries[0]
+    planners["new", first[3]].plan(first[1], first[2])
     warmup = time.perf_counter() - t0
     rows = []
-    for name, start, goal, loaded in queries_fn(scene):
+    for name, start, goal, loaded in queries:
         t0 = time.perf_counter()
-        res = planners[loaded].plan(scene.start(start), goal)
+        res = planners["new", loaded].plan(start, goal)
         total = time.perf_counter() - t0
         row = {"scene": scene.name, "query": name, "ok": res.ok, "total_s": total, "reason": res.reason}
         row.update({f"{k}_s": v.time_s for k, v in res.stages.items()})
         if res.ok:
             d = res.trajectory.duration_s
+            info = res.trajectory.info
             row.update(
                 duration_s=d,
                 const_ratio=d / res.baselines["constant"] if res.baselines["constant"] else float("nan"),
                 linear_ratio=d / res.baselines["linear"] if res.baselines["linear"] else float("nan"),
-                profile=res.trajectory.info.profile,
+                js_ratio=d / info.baseline_jointspace_s,
+                lb_ratio=d / info.lower_bound_s,
+                source=f"{info.path_source}/{info.profile}",
                 slew_ratio=d / slew_bound_s(crane, res.trajectory),
-                pp_ratio=phase_plane_ratio(crane, res.trajectory),
             )
+        if compare_old:
+            t0 = time.perf_counter()
+            old = planners["old", loaded].plan(start, goal)
+            row["old_total_s"] = time.perf_counter() - t0
+            row["old_ok"] = old.ok
+            if res.ok and old.ok:
+                row["old_ratio"] = res.trajectory.duration_s / old.trajectory.duration_s
         rows.append(row)
     print(f"{scene.name}: first query incl. NLP build {warmup:.2f} s")
     return rows
@@ -130,40 +151,67 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int) -> list[dict]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--compare-old", action="store_true", help="also plan with the tip-space path alone")
     args = ap.parse_args()
-    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed)
-    rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed)
+    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed, args.compare_old)
+    rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed, args.compare_old)
 
-    cols = ("path_s", "redundancy_s", "timing_s", "verification_s")
+    cols = ("path_s", "jointspace_s", "redundancy_s", "timing_s", "verification_s")
+    ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
     head = (
-        f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'redund':>6} {'timing':>6} {'verify':>6} {'total':>6} "
-        f"{'T (s)':>6} {'/const':>6} {'/lin':>6} {'/slew':>6} {'pp/c':>6} profile"
+        f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'joint':>6} {'redund':>6} {'timing':>6} {'verify':>6} "
+        f"{'total':>6} {'old':>6} {'T (s)':>6} {'/js':>6} {'/lb':>6} {'/old':>6} {'/const':>6} {'/lin':>6} "
+        f"{'/slew':>6} source"
     )
     print(head)
     print("-" * len(head))
     for r in rows:
         stage = " ".join(f"{r.get(k, float('nan')) * 1000:6.0f}" for k in cols)
+        times = f"{r['total_s'] * 1000:6.0f} {r.get('old_total_s', float('nan')) * 1000:6.0f}"
         if r["ok"]:
-            ratios = " ".join(f"{r[k]:6.3f}" for k in ("const_ratio", "linear_ratio", "slew_ratio", "pp_ratio"))
-            tail = f"{r['duration_s']:6.2f} {ratios} {r['profile']}"
+            ratios = " ".join(f"{r.get(k, float('nan')):6.3f}" for k in ratio_keys)
+            tail = f"{r['duration_s']:6.2f} {ratios} {r['source']}"
         else:
             tail = f"FAILED: {r['reason']}"
         ok = "yes" if r["ok"] else "NO"
-        print(f"{r['scene']:15} {r['query']:20} {ok:3} {stage} {r['total_s'] * 1000:6.0f} {tail}")
-    print("(times in ms; /const, /lin: duration over the constant- and linear-telescope baselines (nan: infeasible);")
-    print(" /slew: duration over the slew-only lower bound, which no telescope profile can beat on that path;")
-    print(" pp/c: velocity-limited time (003 eq. 4.12, no acceleration limits), profile used / constant profile)")
+        print(f"{r['scene']:15} {r['query']:20} {ok:3} {stage} {times} {tail}")
+    print("(times in ms; old: compute of the tip-space-only pipeline; /js: duration over the joint-space baseline;")
+    print(" /lb: over the pump-aware lower bound; /old: over the tip-space-only pipeline's duration;")
+    print(" /const, /lin: over the constant- and linear-telescope baselines on the tip-space path (nan: infeasible);")
+    print(" /slew: over the slew-only bound of the chosen path)")
     for scene in sorted({r["scene"] for r in rows}) + ["all"]:
         sub = [r for r in rows if scene in ("all", r["scene"])]
         ok = [r for r in sub if r["ok"]]
         median_ms = statistics.median(r["total_s"] for r in sub) * 1000
-        parts = [f"{scene}: success {len(ok)}/{len(sub)}", f"median total {median_ms:.0f} ms"]
-        keys = ("const_ratio", "linear_ratio", "slew_ratio", "pp_ratio")
-        for key, label in zip(keys, ("constant", "linear", "slew bound", "constant (eq. 4.12 time)"), strict=True):
-            vals = [r[key] for r in ok if np.isfinite(r[key])]
-            parts.append(f"mean T/{label} {np.mean(vals) if vals else float('nan'):.3f} (n={len(vals)})")
+        parts = [f"{scene}: success {len(ok)}/{len(sub)}", f"median compute {median_ms:.0f} ms"]
+        if all("old_total_s" in r for r in sub):
+            old_ms = statistics.median(r["old_total_s"] for r in sub) * 1000
+            parts.append(
+                f"old {old_ms:.0f} ms (ratio {median_ms / old_ms:.2f}), old success "
+                f"{sum(r['old_ok'] for r in sub)}/{len(sub)}"
+            )
+        for key, label in zip(
+            ratio_keys, ("joint-space baseline", "lower bound", "old", "constant", "linear", "slew bound"), strict=True
+        ):
+            vals = [r[key] for r in ok if key in r and np.isfinite(r[key])]
+            extra = f", max {max(vals):.3f}" if key == "old_ratio" and vals else ""
+            parts.append(f"mean T/{label} {np.mean(vals) if vals else float('nan'):.3f} (n={len(vals)}{extra})")
         print("; ".join(parts))
-    stages = ", ".join(f"{k[:-2]} {statistics.median(r[k] for r in rows if k in r) * 1000:.0f}" for k in cols)
+    for label, prefix, suffix in (
+        ("bunk-center -> pile points, empty", "bunk->pile", ""),
+        ("pile -> bunk-drop, loaded", "pile", "->drop"),
+    ):
+        vals = [
+            r["duration_s"]
+            for r in rows
+            if r["ok"]
+            and r["query"].startswith(prefix)
+            and r["query"].endswith(suffix)
+            and r["scene"] == "forwarder-site"
+        ]
+        if vals:
+            print(f"forwarder-site {label}: median duration {statistics.median(vals):.2f} s (n={len(vals)})")
+    stages = ", ".join(f"{k[:-2]} {statistics.median(r.get(k, 0.0) for r in rows) * 1000:.0f}" for k in cols)
     print(f"median stage times (ms): {stages}")
 
 

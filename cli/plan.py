@@ -22,9 +22,13 @@ from .output import emit_json
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the path planner.")
 @click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
-@click.option("--time-limit", default=2.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
-              help="Path-planning time budget (s).")
+@click.option(
+    "--time-limit",
+    default=2.0,
+    show_default=True,
+    type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
+    help="Path-planning time budget (s).",
+)
 def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir, seed, planner, time_limit) -> None:
     """Plan a collision-free, near time-optimal trajectory (path, telescope profile, timing, verification)."""
     from motionlib import Crane, PlanOptions, Scene
@@ -51,6 +55,9 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
         "path_length_m": info.path_length_m,
         "baseline_constant_s": result.baselines["constant"],
         "baseline_linear_s": result.baselines["linear"],
+        "baseline_jointspace_s": result.baselines["jointspace"],
+        "lower_bound_s": info.lower_bound_s,
+        "path_source": info.path_source,
         "profile": info.profile,
         "energy_m3": info.energy_m3,
         "min_clearance_m": info.min_clearance_m,
@@ -63,11 +70,16 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
         return
     click.echo(
         f"trajectory: {summary['duration_s']:.2f} s over {summary['path_length_m']:.2f} m"
-        f" ({summary['profile']} telescope profile)"
+        f" ({summary['path_source']} path, {summary['profile']} telescope profile)"
     )
-    for name in ("constant", "linear"):
+    for name, label in (
+        ("constant", "constant telescope"),
+        ("linear", "linear telescope"),
+        ("jointspace", "joint space"),
+    ):
         value = result.baselines[name]
-        click.echo(f"  baseline, {name} telescope: " + (f"{value:.2f} s" if value is not None else "infeasible"))
+        click.echo(f"  baseline, {label}: " + (f"{value:.2f} s" if value is not None else "infeasible"))
+    click.echo(f"  lower bound: {info.lower_bound_s:.2f} s")
     click.echo("  stage times: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in summary["stage_times_s"].items()))
     if output:
         click.echo(f"  written to {output}")

@@ -60,6 +60,7 @@ import numpy as np
 
 from ..errors import InputError, LibraryFileError, PlanningError
 from ..fileio import atomic_output, decode_attr, hdf5_errors, read_array
+from ..planning.planner import PLANNER_VERSION
 from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
 from ..progress import Progress, make_progress
 from .spec import Entry, LibrarySpec, plan_options
@@ -334,7 +335,11 @@ def _parts_lock(parts: Path) -> Iterator[None]:
 
 def _prepare_parts(parts: Path, output: Path, digest: str, n_entries: int, resume: bool) -> None:
     manifest = {
-        "schema": "motionlib.library-parts", "output": output.name, "spec_digest": digest, "n_entries": n_entries
+        "schema": "motionlib.library-parts",
+        "output": output.name,
+        "spec_digest": digest,
+        "planner_version": PLANNER_VERSION,
+        "n_entries": n_entries,
     }
     if parts.exists():
         if not resume:
@@ -350,6 +355,11 @@ def _prepare_parts(parts: Path, output: Path, digest: str, n_entries: int, resum
             raise LibraryFileError(
                 f"{parts} holds checkpoints of a different spec (crane, scene, planner options or entries changed); "
                 f"restore the spec, or remove the directory to start over"
+            )
+        if found.get("planner_version", 1) != PLANNER_VERSION:
+            raise LibraryFileError(
+                f"{parts} holds checkpoints of planner version {found.get('planner_version', 1)} "
+                f"(this motionlib plans with version {PLANNER_VERSION}); remove the directory to start over"
             )
         return
     try:
@@ -464,6 +474,11 @@ def library_is_current(spec: LibrarySpec, output: str | Path) -> tuple[bool, str
         return False, str(exc)
     if build.get("spec_digest") != spec.digest:
         return False, f"{path} was built from a different spec, crane or scene"
+    if build.get("planner_version", 1) != PLANNER_VERSION:
+        return False, (
+            f"{path} was built by planner version {build.get('planner_version', 1)} "
+            f"(this motionlib plans with version {PLANNER_VERSION})"
+        )
     if build.get("motionlib_version") != _version("motionlib"):
         return False, f"{path} was built by motionlib {build.get('motionlib_version')}"
     return True, ""
@@ -542,6 +557,7 @@ def build_library(
         build_info = {
             "spec_digest": spec.digest,
             "motionlib_version": _version("motionlib"),
+            "planner_version": PLANNER_VERSION,
             "finished_utc": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
             "wall_time_s": time.monotonic() - t_start,
             "executor": f"dask {scheduler}" if scheduler else f"local process pool, {n_workers} workers",

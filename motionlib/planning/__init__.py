@@ -3,7 +3,16 @@
 Modules, in pipeline order
 --------------------------
 path
-    Collision-free tip path with OMPL, simplified and fitted with a spline (000 section 2.3).
+    Collision-free tip path with OMPL, simplified and fitted with a spline (000 section 2.3);
+    :func:`~.path.solve_ompl`, the OMPL call for any dimension.
+jointspace
+    Joint-space paths (straight line or OMPL) to goal configurations, and the joint-space baseline.
+shape
+    Shape optimisation of a joint path for motion time, keeping every segment valid.
+joint_to_tip
+    A joint path in the product's shape: tip spline of its forward kinematics and a fitted telescope profile.
+lower_bound
+    Pump-aware lower bound on the duration of any verified motion of a query.
 spline
     :class:`~.spline.TipSpline`: arc-length cubic spline with nearest-point search.
 redundancy
@@ -12,8 +21,11 @@ phase_plane
     Velocity-limited path speed bound and time (003 eqs. 4.8-4.12).
 timing
     Time-optimal time scaling with TOPPRA under the crane's limits.
+verification
+    :class:`~.verification.Verifier`: dense limit and collision re-check; :func:`~.verification.time_and_verify`.
 planner
-    :func:`~.planner.plan`: the stages above plus the dense verification, as one call.
+    :func:`~.planner.plan`: path candidates from several sources through the stages above; the
+    fastest verified wins.
 trajectory
     :class:`~.trajectory.Trajectory` and its HDF5 layout (plan files, library entries).
 """

@@ -289,11 +289,59 @@ def _ompl_plan(
     opts: PathOptions,
     diag: dict[str, Any],
 ) -> tuple[np.ndarray | None, str]:
-    """Run OMPL; return (waypoints (n, 3) or None if no exact solution, OMPL status string)."""
+    """Run OMPL in the tip space; return (waypoints (n, 3) or None if no exact solution, OMPL status string)."""
+    return solve_ompl(
+        start,
+        goal,
+        opts.lower_m,
+        opts.upper_m,
+        is_valid,
+        planner=opts.planner,
+        time_limit_s=opts.time_limit_s,
+        seed=int(opts.seed),
+        resolution=opts.validity_resolution_m,
+        simplify=opts.simplify,
+        diag=diag,
+    )
+
+
+def solve_ompl(
+    start: np.ndarray,
+    goal: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    is_valid: Callable[[np.ndarray], bool],
+    *,
+    planner: str,
+    time_limit_s: float,
+    seed: int,
+    resolution: float,
+    simplify: bool,
+    diag: dict[str, Any],
+    shortcut_only: bool = False,
+) -> tuple[np.ndarray | None, str]:
+    """Plan a polyline from ``start`` to ``goal`` (d,) in the box ``[lower, upper]`` (d,) with OMPL.
+
+    ``RealVectorStateSpace(d)``, ``SimpleSetup``, the named geometric planner, the process-wide
+    seed reset to ``seed + 1`` under the module lock; straight motions are checked at points at
+    most ``resolution`` (units of the space) apart. Only an exact solution is returned, shortcut
+    by ``simplifySolution`` when ``simplify`` (until no further improvement), or with
+    ``shortcut_only`` by the path simplifier's ``reduceVertices`` and ``ropeShortcutPath`` alone (no
+    B-spline smoothing, which is most of the cost when validity checks are expensive). Fills
+    ``planning_time_s``, ``simplify_time_s``, ``n_raw_waypoints``, ``n_waypoints`` of ``diag``.
+
+    Returns
+    -------
+    waypoints : ndarray, shape (n, d), or None
+        None when OMPL found no exact solution.
+    status : str
+        OMPL's planner status name.
+    """
+    dim = int(start.shape[0])
 
     def ompl_valid(state: Any) -> bool:
         # nanobind converts only a Python bool back to C++ bool (np.bool_ gives std::bad_cast)
-        return bool(is_valid(np.array(state[0:3])))
+        return bool(is_valid(np.array(state[0:dim])))
 
     with _OMPL_LOCK:
         previous_level = ou.getLogLevel()
@@ -301,35 +349,42 @@ def _ompl_plan(
             # reseeding after OMPL has created generators logs an error, but does reseed the
             # seed generator, which is what determinism needs; silence that one message
             ou.setLogLevel(ou.LOG_NONE)
-            ou.RNG.setSeed(int(opts.seed) + 1)
+            ou.RNG.setSeed(seed + 1)
             ou.setLogLevel(ou.LOG_WARN)
 
-            space = ob.RealVectorStateSpace(3)
-            bounds = ob.RealVectorBounds(3)
-            bounds.low = list(opts.bounds[0])
-            bounds.high = list(opts.bounds[1])
+            space = ob.RealVectorStateSpace(dim)
+            bounds = ob.RealVectorBounds(dim)
+            bounds.low = [float(v) for v in lower]
+            bounds.high = [float(v) for v in upper]
             space.setBounds(bounds)
             setup = og.SimpleSetup(space)
             setup.setStateValidityChecker(ompl_valid)
             si = setup.getSpaceInformation()
-            si.setStateValidityCheckingResolution(min(1.0, opts.validity_resolution_m / space.getMaximumExtent()))
+            si.setStateValidityCheckingResolution(min(1.0, resolution / space.getMaximumExtent()))
             s_state, g_state = space.allocState(), space.allocState()
-            s_state[0:3] = start.tolist()
-            g_state[0:3] = goal.tolist()
+            s_state[0:dim] = start.tolist()
+            g_state[0:dim] = goal.tolist()
             setup.setStartAndGoalStates(s_state, g_state)
-            setup.setPlanner(getattr(og, opts.planner)(si))
+            setup.setPlanner(getattr(og, planner)(si))
 
-            status = setup.solve(float(opts.time_limit_s))
+            status = setup.solve(float(time_limit_s))
             diag["planning_time_s"] = float(setup.getLastPlanComputationTime())
             status_name = status.getStatus().name
             if not setup.haveExactSolutionPath():
                 return None, status_name
             diag["n_raw_waypoints"] = int(setup.getSolutionPath().getStateCount())
-            if opts.simplify:
+            path = setup.getSolutionPath()
+            if simplify and shortcut_only:
+                t0 = time.perf_counter()
+                simplifier = setup.getPathSimplifier()
+                simplifier.reduceVertices(path)
+                simplifier.ropeShortcutPath(path)
+                diag["simplify_time_s"] = time.perf_counter() - t0
+            elif simplify:
                 setup.simplifySolution()  # duration 0: simplify until no further improvement
                 diag["simplify_time_s"] = float(setup.getLastSimplificationTime())
-            path = setup.getSolutionPath()
-            waypoints = np.array([s[0:3] for s in path.getStates()], dtype=np.float64)
+                path = setup.getSolutionPath()
+            waypoints = np.array([s[0:dim] for s in path.getStates()], dtype=np.float64)
         finally:
             ou.setLogLevel(previous_level)
     diag["n_waypoints"] = int(waypoints.shape[0])
@@ -416,8 +471,9 @@ def _repair_waypoints(
     invalid (where OMPL's segment clips an obstacle between its checks) and
     points within ``REPAIR_MIN_SEPARATION_M`` of a waypoint are skipped.
     """
-    w = spline.waypoints
-    s_w = spline.waypoint_s
+    w, s_w = spline.waypoints, spline.waypoint_s
+    if w is None or s_w is None:
+        raise InputError("spline repair needs a spline fitted through waypoints (TipSpline.from_waypoints)")
     n_seg = w.shape[0] - 1
     idx = np.flatnonzero(bad)
     runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
@@ -430,14 +486,14 @@ def _repair_waypoints(
             # mirror across the nearer corner onto the neighbouring segment
             corner, other = (j, j - 1) if t < 0.5 else (j + 1, j + 1)
             if 0 < corner < n_seg and 0 <= other < n_seg:
-                dist = (t if t < 0.5 else 1.0 - t) * np.linalg.norm(w[j + 1] - w[j])
+                dist = (t if t < 0.5 else 1.0 - t) * float(np.linalg.norm(w[j + 1] - w[j]))
                 leg = float(np.linalg.norm(w[other + 1] - w[other]))
                 d = min(dist, 0.5 * leg)
                 new.append((other, 1.0 - d / leg if other == j - 1 else d / leg))
     points = [w[j] + t * (w[j + 1] - w[j]) for j, t in new]
     keys = [j + t for j, t in new]
     # merge with the existing waypoints in path order, skipping near-duplicates
-    merged_keys = list(range(w.shape[0]))
+    merged_keys = [float(i) for i in range(w.shape[0])]
     merged_pts = list(w)
     for key, p in sorted(zip(keys, points, strict=True), key=lambda kp: kp[0]):
         pos = int(np.searchsorted(merged_keys, key))

@@ -1,28 +1,40 @@
 """The offline planning pipeline: start configuration + goal point -> verified trajectory.
 
-Stages (each its own module, each returning a result with a status):
+The objective is motion time. Path candidates come from several sources, each is brought into
+the product's shape (an arc-length cubic-spline tip path and a Bézier telescope profile), timed
+and verified, and the fastest verified one wins (each stage is its own module and returns a
+result with a status):
 
-1. ``path`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
-   with OMPL, simplified and fitted with an arc-length cubic spline, repaired
-   where the spline overshoots into an obstacle. A tip state is valid when the
-   grapple (and log) keeps its clearance and some telescope extension reaches it
-   inside the workspace with the whole arm clear.
-2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the
-   minimum-time Bézier telescope profile (CasADi + IPOPT). It and the two
-   baselines (a constant and a linearly interpolated telescope) are screened for
-   the joint limits and whole-arm clearance; if none passes, linear fallback
-   profiles are tried. The trajectory records which profile was used.
-3. ``timing`` (:mod:`motionlib.planning.timing`): TOPPRA under direction-dependent
-   velocity, acceleration and shared-pump flow limits, at rest at both ends,
-   for every usable profile; the fastest is kept, so the result is never slower
-   than a usable baseline.
-4. ``verification``: the 200 Hz samples are re-checked for every limit (1 %
-   tolerance) and for collisions at <= 1 cm tip spacing with the collision
-   module. When samples between TOPPRA's grid points overshoot a limit, every
-   profile is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
-   Redundancy and timing work on a grid of the path every ``path_grid_m`` (10 cm).
+1. candidates:
 
-:func:`plan` never raises for a planning failure: it returns a
+   * ``tip-rrt`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
+     with OMPL, simplified, fitted with an arc-length cubic spline and repaired where the spline
+     overshoots. A tip state is valid when the grapple (and log) keeps its clearance and some
+     telescope extension reaches it inside the workspace with the whole arm clear. Kept as a
+     candidate, so the result is never slower than the tip-shortest path.
+   * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
+     RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
+     configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
+     are timed and verified as the joint-space baseline; the ``joint_candidates_max`` fastest
+     are shape-optimised (:mod:`motionlib.planning.shape`) and turned into tip splines with a
+     fitted telescope profile (:mod:`motionlib.planning.joint_to_tip`).
+
+2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the minimum-time
+   Bézier telescope profile (CasADi + IPOPT) on every candidate; on ``tip-rrt`` also the
+   constant and linear telescope baselines, on joint candidates their fitted profile. Profiles
+   are screened for the joint limits and whole-arm clearance; if none passes, linear fallback
+   profiles are tried.
+3. ``timing`` (:mod:`motionlib.planning.timing`): TOPPRA under direction-dependent velocity,
+   acceleration and shared-pump flow limits, at rest at both ends, for every usable
+   (candidate, profile).
+4. ``verification``: fastest first, until none left could beat the best verified: the 200 Hz
+   samples are re-checked for every limit (1 % tolerance) and for collisions at <= 1 cm tip
+   spacing; when samples between TOPPRA's grid points overshoot a limit, that path is re-timed
+   under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
+   which source won (also ``TrajectoryInfo.path_source``).
+
+Every plan reports the pump-aware lower bound and the joint-space baseline beside the
+telescope baselines. :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
 """
 
@@ -37,12 +49,15 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_vector
-from ..errors import PlanningError, UnreachableError
+from ..errors import InputError, PlanningError, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import limits_for
+from ..model.limits import Limit, limits_for
 from ..model.scene import Scene
-from .path import PathOptions, PathStatus, plan_tip_path
+from .joint_to_tip import tip_path_from_joint_path
+from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
+from .lower_bound import best_goal_telescope, lower_bound_s
+from .path import PathOptions, PathStatus, plan_tip_path, spline_check_grid
 from .redundancy import (
     RedundancyOptions,
     RedundancyStatus,
@@ -50,10 +65,11 @@ from .redundancy import (
     joint_path,
     optimise_telescope,
 )
+from .shape import ShapeStatus, optimise_shape
 from .spline import TipSpline
-from .timing import TimingStatus, time_scale
+from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
-from .verification import Verifier
+from .verification import Verifier, time_and_verify
 
 
 class PlanStatus(Enum):
@@ -67,10 +83,19 @@ class PlanStatus(Enum):
     VERIFICATION_FAILED = "verification"
 
 
+#: Version of the planning pipeline, stored in every library build: a change that gives different
+#: trajectories for the same spec bumps it, so libraries built before are rebuilt.
+#: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins.
+PLANNER_VERSION = 2
+
+#: Name of the tip-space path candidate (today's OMPL tip path).
+TIP_SOURCE = "tip-rrt"
+GIVEN_SOURCE = "given"  # the path of Planner.plan_along
+#: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
+JOINT_CANDIDATE_CHECK_STEP_M = 0.02
+
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
-TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 1), (0.97, 2), (0.94, 4), (0.9, 4))
-"""(safety factor on the limits, TOPPRA grid densification): the TOPPRA grid has at least
-densification x max(100, path grid points) points."""
+TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
 
 
 @dataclass(frozen=True)
@@ -100,10 +125,20 @@ class PlanOptions:
     verify_tip_spacing_m : float
         Largest tip motion (m) between two configurations of the collision re-check.
     path_grid_m : float
-        Spacing (m) of the path grid on which the telescope profile gives the joint path that
-        the timing interpolates (a cubic spline in joint space): between grid points the tip
-        can leave the tip path, the more the more curved the path; a finer grid keeps it closer.
+        Spacing (m) of the path grid on which a telescope profile gives the joint path that the
+        timing interpolates (a cubic spline in joint space): between grid points the tip can
+        leave the tip path, the more the more curved the path; a finer grid keeps it closer.
     redundancy : RedundancyOptions
+    jointspace : JointPathOptions
+        Joint-space path search (candidates and the joint-space baseline).
+    goal_telescopes : int
+        Goal telescope values of the joint-space paths: the one of the smallest lower bound, and
+        ``goal_telescopes - 1`` more spread over the stroke.
+    joint_candidates : bool
+        Plan joint-space paths (candidates and the joint-space baseline); False gives the
+        tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
+    joint_candidates_max : int
+        How many joint paths (the fastest in joint space) become candidates in the product's shape.
     """
 
     loaded: bool = False
@@ -117,6 +152,21 @@ class PlanOptions:
     verify_tip_spacing_m: float = 0.01
     path_grid_m: float = 0.1
     redundancy: RedundancyOptions = field(default_factory=RedundancyOptions)
+    jointspace: JointPathOptions = field(default_factory=JointPathOptions)
+    goal_telescopes: int = 3
+    joint_candidates: bool = True
+    joint_candidates_max: int = 2
+
+
+@dataclass
+class _Candidate:
+    """One candidate tip path with its telescope profiles: ``q_paths`` holds the usable ones on ``s_grid``."""
+
+    spline: TipSpline
+    s_grid: np.ndarray
+    profiles: dict[str, TelescopeProfile]
+    q_paths: dict[str, np.ndarray]
+    rejected: dict[str, str]
 
 
 @dataclass
@@ -133,8 +183,12 @@ class PlanResult:
     stages : dict of str to StageReport
         What each stage that ran did: status, time and diagnostics.
     baselines : dict of str to float or None
-        ``constant`` and ``linear``: TOPPRA durations (s) of the same path with
-        a constant and a linearly interpolated telescope (None if infeasible).
+        ``constant`` and ``linear``: TOPPRA durations (s) of the tip-space path with
+        a constant and a linearly interpolated telescope; ``jointspace``: the verified
+        joint-space baseline (None if infeasible or not run).
+    lower_bound_s : float
+        Lower bound on any verified duration of the query (s,
+        :func:`~motionlib.planning.lower_bound.lower_bound_s`); NaN if not computed.
     """
 
     status: PlanStatus
@@ -142,6 +196,7 @@ class PlanResult:
     trajectory: Trajectory | None = None
     stages: dict[str, StageReport] = field(default_factory=dict)
     baselines: dict[str, float | None] = field(default_factory=dict)
+    lower_bound_s: float = math.nan
 
     @property
     def ok(self) -> bool:
@@ -171,7 +226,11 @@ class Planner:
         o = self.options
         self._path_checker = CollisionChecker(crane, scene, margin=o.clearance_m)
         self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
-        self.limits = limits_for(crane)
+        self.limits = limits_for(crane)  # the same objects time, verify and bound every candidate and baseline
+        #: (limits, least TOPPRA grid size) per timing attempt, shared by candidates and the joint-space baseline
+        self.timing_attempts: list[tuple[list[Limit], int]] = [
+            (self.limits if scale == 1.0 else limits_for(crane, scale), grid) for scale, grid in TIMING_ATTEMPTS
+        ]
         self.verifier = Verifier(crane, scene, self.limits, o.loaded, o.verify_tip_spacing_m)
         self._exact_checker = self.verifier.checker
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
@@ -205,15 +264,16 @@ class Planner:
                 return True
         return False
 
-    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def _bounds(self) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        """Lower and upper corners (m) of the tip-space box: the crane's reach around the column, above the ground."""
         m = self.crane.model
         reach = (
             m.boom_pivot_offset
             + m.boom_length
             + float(np.hypot(m.jib_length + self.crane.q_max[3], m.telescope_offset))
         )
-        z_low = self.scene.ground_z + m.grapple_length
-        return np.array([-reach, -reach, z_low]), np.array([reach, reach, m.column_height + reach])
+        z_low = float(self.scene.ground_z + m.grapple_length)
+        return (-reach, -reach, z_low), (reach, reach, float(m.column_height + reach))
 
     def _goal_unreachable_reason(self, goal: np.ndarray) -> str:
         # The message of the IK at full extension says why (beyond reach, too close, joint limit).
@@ -275,23 +335,79 @@ class Planner:
                 f"the arm comes within {o.arm_clearance_m} m of an obstacle",
             )
         start_p = crane.fk(start_q)
+        lower_bound = lower_bound_s(crane, self.limits, start_q, goal_p)
+        candidates: dict[str, _Candidate] = {}
+        rejected_sources: dict[str, str] = {}
 
-        # 1. Path.
-        lower, upper = self._bounds()
-        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=(lower, upper))
+        # 1a. Tip-space path (today's source, kept so the result is never slower than it).
+        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=self._bounds())
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
         stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
-        if path.status is not PathStatus.OK or path.spline is None:
-            return fail(PlanStatus.PATH_FAILED, path.reason)
-        return self._along(start_q, goal_p, path.spline, stages)
+        t_redundancy = 0.0
+        red_details: dict[str, Any] = {}
+        if path.status is PathStatus.OK and path.spline is not None:
+            t0 = time.perf_counter()
+            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_q, None)
+            t_redundancy += time.perf_counter() - t0
+        else:
+            rejected_sources[TIP_SOURCE] = path.reason
+
+        # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
+        #     candidates in the product's shape (tip spline of their forward kinematics).
+        t0 = time.perf_counter()
+        joint_paths, joint_details = self._joint_paths(start_q, goal_p) if o.joint_candidates else ({}, {})
+        baseline_js = jointspace_baseline(crane, joint_paths, self.timing_attempts, self.verifier, o.dt_s)
+        stages["jointspace"] = StageReport(
+            "ok" if joint_paths else "failed",
+            time.perf_counter() - t0,
+            {**joint_details, "baseline_durations_s": baseline_js.durations_s, "verified": baseline_js.verified},
+        )
+        t0 = time.perf_counter()
+        shapes: dict[str, dict[str, Any]] = {}
+        t_shape = 0.0
+        sources: dict[str, np.ndarray] = {}
+        for name in baseline_js.fastest(o.joint_candidates_max):  # the fastest joint paths become candidates
+            sources[name] = joint_paths[name]
+            t1 = time.perf_counter()
+            shape = optimise_shape(crane, joint_paths[name], self._config_valid, self.limits)
+            t_shape += time.perf_counter() - t1
+            shapes[name] = {
+                "status": shape.status.value,
+                "estimate_before_s": shape.estimate_before_s,
+                "estimate_after_s": shape.estimate_after_s,
+                "evaluations": shape.evaluations,
+            }
+            if shape.status is ShapeStatus.IMPROVED:  # a candidate beside the unshaped one
+                sources[f"{name}+shape"] = shape.waypoints
+        for name, q_wp in sources.items():
+            try:
+                spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
+            except InputError as exc:
+                rejected_sources[name] = str(exc)
+                continue
+            s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
+            if not all(self._grapple_valid(p) for p in spline(s_chk)):
+                rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
+                continue
+            candidates[name], red_details[name] = self._candidate(spline, start_q, initial)
+        t_redundancy += time.perf_counter() - t0 - t_shape
+        stages["shape"] = StageReport("ok", t_shape, shapes)
+        stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
+        if not candidates:
+            if TIP_SOURCE in rejected_sources and not joint_paths:
+                return fail(PlanStatus.PATH_FAILED, rejected_sources[TIP_SOURCE])
+            reasons = "; ".join(f"{k}: {v}" for k, v in rejected_sources.items())
+            return fail(PlanStatus.REDUNDANCY_FAILED, "no path candidate is usable: " + reasons)
+        return self._finish(start_q, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s, lower_bound)
 
     def plan_along(self, start_q: Any, spline: TipSpline) -> PlanResult:
         """Stages 2-4 on a given tip path: the telescope profile, the timing and the verification.
 
-        What :meth:`plan` does after its path stage, for a path from elsewhere (a recorded
-        operator's tip path, 003 Paper I). The path is not checked for clearance beforehand:
-        the dense verification reports where it touches an obstacle.
+        What :meth:`plan` does with its ``tip-rrt`` candidate, for a path from elsewhere (a
+        recorded operator's tip path, 003 Paper I). The path is not checked for clearance
+        beforehand: the dense verification reports where it touches an obstacle. No lower
+        bound or joint-space baseline is computed (NaN).
 
         Parameters
         ----------
@@ -303,97 +419,111 @@ class Planner:
         Returns
         -------
         PlanResult
-            Its ``stages`` have no ``path`` entry; the goal is the path's end.
+            The goal is the path's end; ``TrajectoryInfo.path_source`` is ``given``.
         """
         start_q = check_vector(start_q, 4, "start")
+        stages: dict[str, StageReport] = {}
         if not self.crane.within_limits(start_q):
             return PlanResult(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside "
-                              "the joint limits", None, {}, {})
-        return self._along(start_q, np.asarray(spline(spline.length), dtype=float), spline, {})
+                              "the joint limits", None, stages, {})
+        t0 = time.perf_counter()
+        candidate, details = self._candidate(spline, start_q, None)
+        stages["redundancy"] = StageReport("ok" if candidate.q_paths else "failed", time.perf_counter() - t0,
+                                           {GIVEN_SOURCE: details})
+        goal_p = np.asarray(spline(spline.length), dtype=float)
+        return self._finish(start_q, goal_p, {GIVEN_SOURCE: candidate}, {}, stages, math.nan, math.nan)
 
-    def _along(
-        self, start_q: np.ndarray, goal_p: np.ndarray, spline: TipSpline, stages: dict[str, StageReport]
+    def _finish(
+        self,
+        start_q: np.ndarray,
+        goal_p: np.ndarray,
+        candidates: dict[str, _Candidate],
+        rejected_sources: dict[str, str],
+        stages: dict[str, StageReport],
+        baseline_jointspace_s: float,
+        lower_bound: float,
     ) -> PlanResult:
-        """Stages 2-4 of :meth:`plan` on ``spline`` (see the module docstring)."""
+        """Stages 2-4 of the candidates: time every usable profile, verify fastest first (module docstring)."""
         crane, o = self.crane, self.options
 
         def fail(status: PlanStatus, reason: str, baselines: dict[str, float | None] | None = None) -> PlanResult:
             return PlanResult(status, reason, None, stages, baselines or {})
 
-        # 2. Redundancy: the optimised profile and the two baselines, screened for the joint
-        #    limits and arm clearance (a verified result, with fallbacks when none is clear).
-        t0 = time.perf_counter()
-        red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy)
-        if red.status is not RedundancyStatus.OK or red.profile is None:
-            stages["redundancy"] = StageReport(red.status.value, time.perf_counter() - t0, dict(red.diagnostics))
-            return fail(PlanStatus.REDUNDANCY_FAILED, red.reason)
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
-        p_grid = spline(s_grid)
-        degree = o.redundancy.degree
-        candidates = {
-            "optimised": red.profile,
-            "constant": TelescopeProfile.constant(start_q[3], spline.length, degree),
-            "linear": TelescopeProfile.linear(start_q[3], red.profile.control_points[-1], spline.length, degree),
-        }
-        q_paths, rejected = self._screen(candidates, spline, s_grid, p_grid, start_q[0])
-        if not q_paths:
-            ends = np.linspace(crane.q_min[3], crane.q_max[3], 5)
-            fallbacks = {
-                f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
-                for end in ends
-            }
-            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
-            rejected.update(more)
-            candidates.update(fallbacks)
-        stages["redundancy"] = StageReport(
-            red.status.value, time.perf_counter() - t0, {**red.diagnostics, "rejected": rejected}
-        )
-        if not q_paths:
-            reasons = sorted(set(rejected.values()))
-            return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(reasons))
+        baselines: dict[str, float | None] = {"constant": None, "linear": None}
+        usable = {k: c for k, c in candidates.items() if c.q_paths}
+        if not usable:
+            profile_reasons = sorted({r for c in candidates.values() for r in c.rejected.values()})
+            return fail(PlanStatus.REDUNDANCY_FAILED, "no telescope profile is usable: " + "; ".join(profile_reasons))
 
-        # 3-4. Timing of every usable profile, then dense verification of the fastest. TOPPRA
-        #    enforces its constraints at grid points only; if the samples between them overshoot
-        #    a limit by more than the 1 % tolerance, all profiles are re-timed under a safety
-        #    factor on a denser grid (baselines included, so the comparison stays fair).
-        t_timing = t_verify = 0.0
-        for scale, densify in TIMING_ATTEMPTS:
-            min_grid = densify * max(100, s_grid.size)
-            t0 = time.perf_counter()
-            limits = limits_for(crane, scale)
-            timings = {
-                name: time_scale(s_grid, q, limits, dt=o.dt_s, min_gridpoints=min_grid) for name, q in q_paths.items()
-            }
-            timed = {name: r for name, r in timings.items() if r.status is TimingStatus.OK}
-            baselines = {k: (timed[k].duration_s if k in timed else None) for k in ("constant", "linear")}
-            t_timing += time.perf_counter() - t0
-            timing_details: dict[str, Any] = {
-                "safety_factor": scale,
-                "min_gridpoints": min_grid,
-                "durations_s": {k: v.duration_s for k, v in timed.items()},
-                "rejected": {k: r.reason for k, r in timings.items() if k not in timed},
-            }
-            if not timed:
-                stages["timing"] = StageReport("failed", t_timing, timing_details)
-                reasons = "; ".join(f"{k}: {v}" for k, v in timing_details["rejected"].items())
-                return fail(PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", baselines)
-            chosen = min(timed, key=lambda k: timed[k].duration_s)
-            timing = timed[chosen]
-            stages["timing"] = StageReport("ok", t_timing, {**timing_details, "profile": chosen})
-            t0 = time.perf_counter()
-            report = self.verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
-            t_verify += time.perf_counter() - t0
-            stages["verification"] = StageReport(
-                "ok" if report.ok else "failed", t_verify, {"problems": report.problems[:10]}
-            )
-            if report.ok or report.collisions:
+        # 2-3. Timing of every usable (candidate, profile), then dense verification, fastest first,
+        #    until no unverified one can beat the best verified. TOPPRA enforces its constraints at
+        #    grid points only; if the samples between them overshoot a limit by more than the 1 %
+        #    tolerance, that path is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
+        t0 = time.perf_counter()
+        first_limits, first_grid = self.timing_attempts[0]
+        timings: dict[tuple[str, str], TimingResult] = {}
+        for cname, cand in usable.items():
+            for pname, q in cand.q_paths.items():
+                timings[cname, pname] = time_scale(cand.s_grid, q, first_limits, dt=o.dt_s, min_gridpoints=first_grid)
+        timed = {key: r for key, r in timings.items() if r.status is TimingStatus.OK}
+        if TIP_SOURCE in usable:
+            tip = {pname: timed.get((TIP_SOURCE, pname)) for pname in ("constant", "linear")}
+            baselines = {k: (r.duration_s if r is not None else None) for k, r in tip.items()}
+        t_timing = time.perf_counter() - t0
+        timing_details: dict[str, Any] = {
+            "durations_s": {f"{c}/{p}": r.duration_s for (c, p), r in timed.items()},
+            "rejected": {f"{c}/{p}": r.reason for (c, p), r in timings.items() if (c, p) not in timed},
+        }
+        if not timed:
+            stages["timing"] = StageReport("failed", t_timing, timing_details)
+            reasons = "; ".join(f"{k}: {v}" for k, v in timing_details["rejected"].items())
+            return fail(PlanStatus.TIMING_FAILED, f"no profile could be timed: {reasons}", baselines)
+        best: tuple[tuple[str, str], TimingResult] | None = None
+        outcomes: dict[str, dict[str, Any]] = {}
+        first_problem = ""
+        t_verify = 0.0
+        for key in sorted(timed, key=lambda k: timed[k].duration_s):
+            if best is not None and timed[key].duration_s >= best[1].duration_s:
                 break
-        if not report.ok:
-            return fail(PlanStatus.VERIFICATION_FAILED, report.problems[0], baselines)
+            cand = usable[key[0]]
+            t1 = time.perf_counter()
+            timing, report, attempt = time_and_verify(
+                cand.s_grid, cand.q_paths[key[1]], self.timing_attempts, self.verifier, o.dt_s, first=timed[key]
+            )
+            t_verify += time.perf_counter() - t1
+            ok = bool(timing.ok and report is not None and report.ok)
+            label = f"{key[0]}/{key[1]}"
+            problems = report.problems if report is not None else [timing.reason]
+            outcomes[label] = {
+                "duration_s": timing.duration_s if timing.ok else math.nan,
+                "verified": ok,
+                "safety_factor": TIMING_ATTEMPTS[attempt][0],
+                "problems": problems[:3],
+            }
+            if ok and (best is None or timing.duration_s < best[1].duration_s):
+                best = (key, timing)
+            elif not ok and not first_problem:
+                first_problem = f"{label}: {problems[0]}"
+        stages["timing"] = StageReport("ok", t_timing, timing_details)
+        stages["verification"] = StageReport("ok" if best else "failed", t_verify, {"candidates": outcomes})
+        if best is None:
+            return fail(PlanStatus.VERIFICATION_FAILED, first_problem, baselines)
+        (source, chosen), timing = best
+        cand = usable[source]
+        stages["candidates"] = StageReport(
+            "ok",
+            0.0,
+            {
+                "source": source,
+                "profile": chosen,
+                "sources": sorted(candidates),
+                "rejected_sources": rejected_sources,
+            },
+        )
 
         info = TrajectoryInfo(
             duration_s=timing.duration_s,
-            path_length_m=float(spline.length),
+            path_length_m=float(cand.spline.length),
             energy_m3=self.verifier.oil_volume_m3(timing.t, timing.qd),
             min_clearance_m=self.verifier.min_clearance(timing.q),
             crane=crane.name,
@@ -405,8 +535,11 @@ class Planner:
             loaded=o.loaded,
             seed=o.seed,
             profile=chosen,
+            path_source=source,
             baseline_constant_s=_nan_if_none(baselines["constant"]),
             baseline_linear_s=_nan_if_none(baselines["linear"]),
+            baseline_jointspace_s=baseline_jointspace_s,
+            lower_bound_s=lower_bound,
             stages=dict(stages),
             limits=self.verifier.limits_record(o.clearance_m, o.arm_clearance_m),
         )
@@ -415,15 +548,87 @@ class Planner:
             q=timing.q,
             qd=timing.qd,
             qdd=timing.qdd,
-            path_s=s_grid,
-            path_tip=p_grid,
-            waypoints=spline.waypoints,
-            spline_breakpoints=spline.breakpoints,
-            spline_coefficients=spline.coefficients,
-            telescope_control_points=candidates[chosen].control_points,
+            path_s=cand.s_grid,
+            path_tip=cand.spline(cand.s_grid),
+            waypoints=_waypoints(cand.spline),
+            spline_breakpoints=cand.spline.breakpoints,
+            spline_coefficients=cand.spline.coefficients,
+            telescope_control_points=cand.profiles[chosen].control_points,
             info=info,
         )
-        return PlanResult(PlanStatus.OK, "", traj, stages, baselines)
+        baselines["jointspace"] = None if math.isnan(baseline_jointspace_s) else baseline_jointspace_s
+        return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
+
+    def _config_valid(self, q: np.ndarray) -> bool:
+        """Joint-space validity under the tip planner's rules: within the joint limits, the arm keeps
+        ``arm_clearance_m`` and the grapple (and log) ``clearance_m`` from the scene."""
+        loaded = self.options.loaded
+        return bool(
+            self.crane.within_limits(q)
+            and not self._arm_checker.in_collision(q, loaded)
+            and not self._path_checker.tip_in_collision(self.crane.fk(q), loaded)
+        )
+
+    def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        """Joint paths to ``goal_telescopes`` goal configurations: the one with the smallest lower bound
+        first, then values spread over the stroke. Returns paths by name ``joint-<source>-q4=<value>``
+        and diagnostics (the reasons of the goals without a path)."""
+        crane, o = self.crane, self.options
+        q4_lo, q4_hi = float(crane.q_min[3]), float(crane.q_max[3])
+        telescopes = [best_goal_telescope(crane, self.limits, start_q, goal_p)]
+        telescopes += list(q4_lo + (q4_hi - q4_lo) * (np.arange(1, o.goal_telescopes) / o.goal_telescopes))
+        paths: dict[str, np.ndarray] = {}
+        failed: dict[str, str] = {}
+        for q4 in telescopes:
+            if not np.isfinite(q4):
+                continue
+            q_goal, ok = crane.ik_batch(goal_p[None, :], np.array([q4]), q1_ref=float(start_q[0]))
+            if not ok[0]:
+                failed[f"q4={q4:.2f}"] = "unreachable"
+                continue
+            res = plan_joint_path(crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed)
+            if res.ok:
+                paths[f"joint-{res.source}-q4={q4:.2f}"] = res.waypoints
+            else:
+                failed[f"q4={q4:.2f}"] = res.reason
+        return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
+
+    def _candidate(
+        self, spline: TipSpline, start_q: np.ndarray, initial: TelescopeProfile | None
+    ) -> tuple[_Candidate, dict[str, Any]]:
+        """Telescope profiles on one tip path, screened (see :meth:`_screen`).
+
+        The tip-space path (``initial`` None) gets the optimised profile and the constant and
+        linear baselines; a path from a joint path gets the optimised profile started from its
+        fitted profile, and the fitted profile itself. When none is usable, linear fallback
+        profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
+        is kept under ``optimised``).
+        """
+        crane, o = self.crane, self.options
+        degree = o.redundancy.degree
+        red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
+        details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
+        if red.status is not RedundancyStatus.OK or red.profile is None:  # the candidate fails with its NLP
+            return _Candidate(spline, s_grid, {}, {}, {"optimised": red.reason}), details
+        profiles = {"optimised": red.profile}
+        if initial is None:
+            end = red.profile.control_points[-1]
+            profiles["constant"] = TelescopeProfile.constant(start_q[3], spline.length, degree)
+            profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+        else:
+            profiles["fitted"] = initial
+        p_grid = spline(s_grid)
+        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0])
+        if not q_paths:
+            fallbacks = {
+                f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+                for end in np.linspace(crane.q_min[3], crane.q_max[3], 5)
+            }
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
+            rejected.update(more)
+            profiles.update(fallbacks)
+        return _Candidate(spline, s_grid, profiles, q_paths, rejected), {**details, "rejected": rejected}
 
     def _screen(
         self, profiles: dict[str, TelescopeProfile], spline: Any, s_grid: np.ndarray, p_grid: np.ndarray, q1: float
@@ -454,6 +659,11 @@ class Planner:
             else:
                 usable[name] = q_grid
         return usable, rejected
+
+
+def _waypoints(spline: TipSpline) -> np.ndarray:
+    """The points (n, 3) the spline was fitted through; its breakpoints' points when it was built from arrays."""
+    return spline.waypoints if spline.waypoints is not None else spline(spline.breakpoints)
 
 
 def _nan_if_none(value: float | None) -> float:

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 from functools import lru_cache
 from types import SimpleNamespace
-from typing import Protocol
+from typing import Any, Protocol
 
 import casadi as ca
 import numpy as np
@@ -126,6 +126,21 @@ class TelescopeProfile:
     def linear(cls, start: float, end: float, length_m: float, degree: int) -> TelescopeProfile:
         # Equally spaced control points give an exactly linear Bézier polynomial.
         return cls(np.linspace(start, end, degree + 1), length_m)
+
+    @classmethod
+    def fit(
+        cls, s_m: np.ndarray, q4: np.ndarray, degree: int, q_min: float, q_max: float, q4_start: float | None = None
+    ) -> TelescopeProfile:
+        """Least-squares Bézier fit of telescope values ``q4`` (n,) m at arc lengths ``s_m`` (n,) m (0 to the length).
+
+        The control points are clipped to ``[q_min, q_max]``; the first is set to ``q4_start`` when given.
+        """
+        length = float(s_m[-1])
+        basis, _ = _bernstein(degree, np.asarray(s_m, dtype=np.float64) / length)
+        ctrl, *_ = np.linalg.lstsq(basis, np.asarray(q4, dtype=np.float64), rcond=None)
+        if q4_start is not None:
+            ctrl[0] = q4_start
+        return cls(np.clip(ctrl, q_min, q_max), length)
 
 
 @dataclass
@@ -229,7 +244,8 @@ def _build_nlp(model: CraneModel, degree: int, n_samples: int, margin: float, ma
     t0 = time.perf_counter()
     crane = Crane(model)
     k, n_ctrl = n_samples, degree + 1
-    has_flow = model.pump_flow is not None
+    pump_flow, displacement = model.pump_flow, model.displacement
+    has_flow = pump_flow is not None and displacement is not None
     theta = np.linspace(0.0, 1.0, k)
     basis, dbasis = _bernstein(degree, theta)
 
@@ -272,13 +288,13 @@ def _build_nlp(model: CraneModel, degree: int, n_samples: int, margin: float, ma
     for i, joint in enumerate(model.joints):
         add(tau - dq[i] / joint.velocity_max, 0.0, np.inf)
         add(tau - dq[i] / joint.velocity_min, 0.0, np.inf)
-    if has_flow:
+    if pump_flow is not None and displacement is not None:
         slack = ca.reshape(a, k, 4)
         for i in range(4):
             add(slack[:, i] - dq[i], 0.0, np.inf)
             add(slack[:, i] + dq[i], 0.0, np.inf)
-        flow = ca.mtimes(slack, ca.DM(model.displacement))  # sum_i d_i |dq_i/ds|, m^3/m
-        add(model.pump_flow * tau - flow, 0.0, np.inf)
+        flow = ca.mtimes(slack, ca.DM(displacement))  # sum_i d_i |dq_i/ds|, m^3/m
+        add(pump_flow * tau - flow, 0.0, np.inf)
     boom, jib = model.joints[1], model.joints[2]
     add(q2, boom.lower + margin, boom.upper - margin)
     add(q3, jib.lower + margin, jib.upper - margin)
@@ -291,7 +307,7 @@ def _build_nlp(model: CraneModel, degree: int, n_samples: int, margin: float, ma
     objective = length * ca.dot(ca.DM(weights), tau)
 
     nlp = {"x": x, "p": params, "f": objective, "g": ca.vertcat(*g)}
-    opts = {
+    opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "ipopt.sb": "yes",
         "print_time": False,
@@ -346,11 +362,7 @@ def initial_profile(
         options = grid[feasible[i]]
         previous = options[np.argmin(np.abs(options - previous))]
         chosen[i] = previous
-    basis, _ = _bernstein(degree, s_m / s_m[-1])
-    ctrl, *_ = np.linalg.lstsq(basis, chosen, rcond=None)
-    if q4_start is not None:
-        ctrl[0] = q4_start
-    return TelescopeProfile(np.clip(ctrl, crane.q_min[3], crane.q_max[3]), float(s_m[-1]))
+    return TelescopeProfile.fit(s_m, chosen, degree, crane.q_min[3], crane.q_max[3], q4_start)
 
 
 class PathLike(Protocol):
@@ -422,10 +434,10 @@ def optimise_telescope(
     tau0 = np.maximum(dq_init / crane.qd_max, dq_init / crane.qd_min).max(axis=1)
     if nlp.has_flow:
         tau0 = np.maximum(tau0, np.abs(dq_init) @ np.asarray(crane.model.displacement) / crane.model.pump_flow)
-    x0 = [initial.control_points, tau0 * 1.05 + 1e-3]
+    x0_parts = [initial.control_points, tau0 * 1.05 + 1e-3]
     if nlp.has_flow:
-        x0.append(np.abs(dq_init).T.ravel())
-    x0 = np.concatenate(x0)
+        x0_parts.append(np.abs(dq_init).T.ravel())
+    x0 = np.concatenate(x0_parts)
 
     lbx = np.full(x0.shape, -np.inf)
     ubx = np.full(x0.shape, np.inf)

@@ -297,7 +297,7 @@ class TipSpline:
             return float(np.sum((self._pp(s) - p) ** 2))
 
         s_best, d_best = float(s_c[int(np.argmin(d2))]), best
-        for i in cand:
+        for i in cand.tolist():
             a, b = s_c[max(i - 1, 0)], s_c[min(i + 1, s_c.size - 1)]
             if b - a <= 0.0:
                 continue

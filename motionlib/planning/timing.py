@@ -45,6 +45,10 @@ from ..errors import InputError, PlanningError
 from ..model.crane_model import JOINT_NAMES
 from ..model.limits import N_JOINTS, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit, Limit
 
+#: Longest duration (s) :func:`time_scale` samples: far beyond any crane motion; a longer timing
+#: (e.g. from near-zero limits) is rejected before millions of samples are made and verified.
+MAX_DURATION_S = 600.0
+
 
 class TimingStatus(enum.Enum):
     """Outcome of :func:`time_scale`."""
@@ -58,6 +62,8 @@ class TimingStatus(enum.Enum):
     DEGENERATE_PATH = "degenerate_path"
     #: TOPPRA failed for numerical reasons (forward pass, NaN output, grid).
     NUMERICAL_ERROR = "numerical_error"
+    #: The time-optimal duration exceeds ``max_duration_s``.
+    TOO_LONG = "too_long"
 
 
 @dataclass(frozen=True)
@@ -136,6 +142,7 @@ def time_scale(
     sd_end: float = 0.0,
     max_grid_error: float = 1e-3,
     min_gridpoints: int = 100,
+    max_duration_s: float = MAX_DURATION_S,
 ) -> TimingResult:
     """Time-optimal trajectory along a joint path under the crane's limits (TOPPRA).
 
@@ -158,6 +165,8 @@ def time_scale(
         Chord error bound (rad, m) for the TOPPRA grid (see the module docstring).
     min_gridpoints : int
         Least number of TOPPRA gridpoints.
+    max_duration_s : float
+        Longest duration (s) that is sampled; longer ones give ``TOO_LONG``.
 
     Returns
     -------
@@ -230,6 +239,12 @@ def time_scale(
     duration = float(traj.duration)
     if not (np.isfinite(duration) and duration > 0.0):
         return TimingResult(TimingStatus.NUMERICAL_ERROR, f"TOPPRA: bad duration {duration}", diagnostics=diag)
+    if duration > max_duration_s:
+        return TimingResult(
+            TimingStatus.TOO_LONG,
+            f"TOPPRA: duration {duration:.4g} s exceeds {max_duration_s:g} s",
+            diagnostics=diag,
+        )
     t = sample_times(duration, dt)
     q_t, qd_t, qdd_t = traj(t, 0), traj(t, 1), traj(t, 2)
     diag = TimingDiagnostics(len(grid), t1 - t0, t2 - t1, time.perf_counter() - t2, data.return_code.name)

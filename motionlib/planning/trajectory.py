@@ -31,7 +31,9 @@ from ..model.kinematics import Crane
 from ..model.scene import Scene
 
 TRAJECTORY_SCHEMA = "motionlib.trajectory"
-TRAJECTORY_VERSION = 1
+#: 2 added ``path_source``, ``baseline_jointspace_s`` and ``lower_bound_s``; version-1 files read with
+#: those as ``tip-rrt`` (the only source then) and NaN (not computed).
+TRAJECTORY_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -89,8 +91,17 @@ class TrajectoryInfo:
         Path-planner seed.
     profile : str
         Telescope profile used: ``optimised``, ``constant``, ``linear`` or ``fallback-linear-to-<q4>``.
+    path_source : str
+        Which path candidate won: ``tip-rrt`` (OMPL in the tip space) or ``joint-<line|planner>-q4=<goal telescope>``
+        (a joint-space path in the product's shape).
     baseline_constant_s, baseline_linear_s : float
-        Durations (s) of the same path with a constant / linearly interpolated telescope; NaN if infeasible.
+        Durations (s) of the tip-space path with a constant / linearly interpolated telescope; NaN if infeasible.
+    baseline_jointspace_s : float
+        Verified duration (s) of the joint-space baseline (joint-space paths timed and verified with the
+        planner's own limits and verifier, best over several goal telescope values); NaN if none.
+    lower_bound_s : float
+        Pump-aware lower bound (s) on the duration of any verified motion of the query
+        (:func:`motionlib.planning.lower_bound.lower_bound_s`); NaN if not computed.
     stages : dict of str to StageReport
         Per stage (``path``, ``redundancy``, ``timing``, ``verification``).
     limits : dict
@@ -110,8 +121,11 @@ class TrajectoryInfo:
     loaded: bool
     seed: int
     profile: str
+    path_source: str = "tip-rrt"
     baseline_constant_s: float = math.nan
     baseline_linear_s: float = math.nan
+    baseline_jointspace_s: float = math.nan
+    lower_bound_s: float = math.nan
     stages: dict[str, StageReport] = field(default_factory=dict)
     limits: dict[str, Any] = field(default_factory=dict)
 
@@ -150,7 +164,7 @@ def _convert(name: str, value: Any, where: str) -> Any:
     """One attribute value as the type its :class:`TrajectoryInfo` field declares."""
     label = f"{where}: attribute {name!r}"
     try:
-        if name in ("crane", "crane_digest", "scene", "scene_digest", "profile"):
+        if name in ("crane", "crane_digest", "scene", "scene_digest", "profile", "path_source"):
             if not isinstance(value, str):
                 raise TypeError("expected a string")
             return value

@@ -20,6 +20,7 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import Limit, PumpFlowLimit, verify_samples
 from ..model.scene import Scene
+from .timing import TimingResult, TimingStatus, time_scale
 
 #: Relative tolerance of the dense limit check: a sample may use up to 1.01 x a limit.
 LIMIT_TOLERANCE = 0.01
@@ -117,3 +118,52 @@ class Verifier:
             rec["pump_flow_m3_s"] = c.model.pump_flow
             rec["displacement"] = list(c.model.displacement)
         return rec
+
+
+def time_and_verify(
+    s: np.ndarray,
+    q: np.ndarray,
+    attempts: Sequence[tuple[Sequence[Limit], int]],
+    verifier: Verifier,
+    dt: float,
+    first: TimingResult | None = None,
+) -> tuple[TimingResult, VerificationReport | None, int]:
+    """Time a joint path with TOPPRA and verify it densely, re-timing under tighter limits when needed.
+
+    TOPPRA enforces its constraints at grid points only; if the samples between them overshoot a
+    limit by more than the tolerance, the path is re-timed with the next attempt's limits (a
+    safety factor) and grid size. Collisions end the attempts (re-timing does not move the path).
+
+    Parameters
+    ----------
+    s : ndarray, shape (K,)
+        Path parameter of the waypoints (strictly increasing).
+    q : ndarray, shape (K, 4)
+        Joint waypoints (rad, m).
+    attempts : sequence of (limits, min_gridpoints)
+        Limits and least TOPPRA grid size per attempt, first attempt first.
+    verifier : Verifier
+    dt : float
+        Sample period (s).
+    first : TimingResult, optional
+        The first attempt's timing when the caller already has it.
+
+    Returns
+    -------
+    timing : TimingResult
+        Of the last attempt made.
+    report : VerificationReport or None
+        Its verification; None when that timing failed.
+    attempt : int
+        Index of the last attempt made.
+    """
+    timing = TimingResult(TimingStatus.NUMERICAL_ERROR, "no timing attempt")
+    report: VerificationReport | None = None
+    for k, (limits, min_grid) in enumerate(attempts):
+        timing = first if (k == 0 and first is not None) else time_scale(s, q, limits, dt=dt, min_gridpoints=min_grid)
+        if not timing.ok:
+            return timing, None, k
+        report = verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
+        if report.ok or report.collisions:
+            return timing, report, k
+    return timing, report, len(attempts) - 1

@@ -27,6 +27,7 @@ from motionlib_cli.main import cli
 
 from motionlib import Library
 from motionlib.errors import InputError, LibraryFileError
+from motionlib.library import build as build_module
 from motionlib.library.build import build_library, library_is_current, parts_dir_for
 from motionlib.library.spec import LibrarySpec
 from motionlib.planning.planner import Planner, PlanOptions
@@ -164,6 +165,11 @@ def test_reuse_only_when_built_from_the_same_spec(reference, tiny_spec, tmp_path
     current, why = library_is_current(LibrarySpec.load(other), out)
     assert not current and "different spec" in why
     assert library_is_current(spec, tmp_path / "missing.h5")[0] is False
+    # a planner change (PLANNER_VERSION stored in the build record) makes it stale too
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(build_module, "PLANNER_VERSION", build_module.PLANNER_VERSION + 1)
+        current, why = library_is_current(spec, out)
+    assert not current and "planner version" in why
     before = content_digest(out)
     r = CliRunner().invoke(cli, ["build", str(tiny_spec), "-o", str(out), "--reuse"])
     assert r.exit_code == 0 and "up to date" in r.output

@@ -235,3 +235,17 @@ def test_sample_times_end_exactly_at_the_duration(duration):
     assert len(t) == int(np.ceil(duration / DT - 1e-9)) + 1
     np.testing.assert_allclose(np.diff(t)[:-1], DT)
     assert 0.0 < t[-1] - t[-2] <= DT * (1 + 1e-12)
+
+
+def test_too_long_is_rejected_before_sampling():
+    """A 1 rad move at 1e-6 rad/s^2 takes 2 sqrt(1 / 1e-6) = 2000 s (bang-bang): beyond MAX_DURATION_S."""
+    from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit
+    from motionlib.planning.timing import MAX_DURATION_S, TimingStatus, time_scale
+
+    q = np.zeros((20, 4))
+    q[:, 0] = np.linspace(0.0, 1.0, 20)
+    limits = [JointVelocityLimit(-np.ones(4), np.ones(4)), JointAccelerationLimit(np.full(4, 1e-6))]
+    res = time_scale(np.linspace(0.0, 1.0, 20), q, limits)
+    assert res.status is TimingStatus.TOO_LONG and "exceeds" in res.reason
+    assert res.t.size == 0
+    assert time_scale(np.linspace(0.0, 1.0, 20), q, limits, max_duration_s=3000.0).duration_s > MAX_DURATION_S

@@ -1,0 +1,61 @@
+"""A joint path in the product's shape: an arc-length cubic-spline tip path and a Bézier telescope profile.
+
+The runtime tracker follows a tip path (000 section 2.3) and the redundancy stage optimises a
+telescope profile on it (003 section 4.4.2). A joint-space path becomes a candidate of that form
+by its forward kinematics: the joint polyline is subdivided joint-linearly until the tip moves at
+most ``step_m`` per piece, the tip points are the spline's waypoints, and the telescope profile is
+the least-squares Bézier fit of the path's own telescope values against tip arc length. With that
+profile the closed-form IK (003 eq. 4.16) gives back (close to) the joint path, so the candidate
+keeps the joint path's oil volume and motion time; the redundancy NLP starts from it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..model.kinematics import Crane
+from .redundancy import TelescopeProfile
+from .spline import TipSpline
+
+
+def tip_path_from_joint_path(
+    crane: Crane, q_wp: np.ndarray, degree: int, step_m: float = 0.25
+) -> tuple[TipSpline, TelescopeProfile]:
+    """Tip spline and fitted telescope profile of a joint polyline ``q_wp`` (n, 4) (rad, m).
+
+    Parameters
+    ----------
+    crane : Crane
+    q_wp : ndarray, shape (n, 4)
+        Joint polyline from the start configuration to a goal configuration.
+    degree : int
+        Degree of the Bézier telescope profile.
+    step_m : float
+        Largest tip motion (m) between two spline waypoints.
+
+    Returns
+    -------
+    spline : TipSpline
+        Through the tips of the subdivided polyline.
+    profile : TelescopeProfile
+        Fitted to the polyline's telescope values; its first control point is the start telescope.
+
+    Raises
+    ------
+    InputError
+        The tip does not move, or stops on the way (the spline cannot be parametrised by arc length).
+    """
+    pieces = [q_wp[:1]]
+    for a, b in zip(q_wp[:-1], q_wp[1:], strict=True):
+        ends = crane.fk_batch(np.stack([a, b]))
+        probe = a + np.linspace(0.0, 1.0, 9)[:, None] * (b - a)
+        tip_len = float(np.linalg.norm(np.diff(crane.fk_batch(probe), axis=0), axis=1).sum())
+        n = max(1, int(np.ceil(max(tip_len, float(np.linalg.norm(ends[1] - ends[0]))) / step_m)))
+        pieces.append(a + (np.arange(1, n + 1)[:, None] / n) * (b - a))
+    q = np.concatenate(pieces)
+    tips = crane.fk_batch(q)
+    spline = TipSpline.from_waypoints(tips)
+    chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tips, axis=0), axis=1))])
+    s = chord * (spline.length / chord[-1])
+    profile = TelescopeProfile.fit(s, q[:, 3], degree, crane.q_min[3], crane.q_max[3], float(q_wp[0, 3]))
+    return spline, profile
