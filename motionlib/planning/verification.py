@@ -141,7 +141,9 @@ def time_and_verify(
     q : ndarray, shape (K, 4)
         Joint waypoints (rad, m).
     attempts : sequence of (limits, min_gridpoints)
-        Limits and least TOPPRA grid size per attempt, first attempt first.
+        Limits and least TOPPRA grid size per attempt, first attempt first; a path with more
+        samples than the first attempt's grid gets a grid as many times its sample count as the
+        attempt's grid is times the first's.
     verifier : Verifier
     dt : float
         Sample period (s).
@@ -160,7 +162,9 @@ def time_and_verify(
     timing = TimingResult(TimingStatus.NUMERICAL_ERROR, "no timing attempt")
     report: VerificationReport | None = None
     for k, (limits, min_grid) in enumerate(attempts):
-        timing = first if (k == 0 and first is not None) else time_scale(s, q, limits, dt=dt, min_gridpoints=min_grid)
+        # the grid grows with the attempts relative to the path's own samples too (long, fine paths)
+        grid = max(min_grid, (min_grid * len(s)) // attempts[0][1])
+        timing = first if (k == 0 and first is not None) else time_scale(s, q, limits, dt=dt, min_gridpoints=grid)
         if not timing.ok:
             return timing, None, k
         report = verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
