@@ -34,11 +34,12 @@ def test_feed_forward_integrates_to_the_trajectory_displacement(setting):
 
 
 def test_calibrated_machine_ends_at_the_goal_open_loop(setting):
-    """Gains 1, no load, no noise: the valve lag and dead band leave only millimetres."""
+    """Gains 1, no load change in the valves, no noise: what is left is the oil spring's compression
+    changing with the grapple's pull between start and end (Delta f / omega^2) and the dead band."""
     crane, _, traj = setting
     sim = SimulatedCrane(crane, traj.q[0], SimParams())
     q_end = run_open_loop(sim, feed_forward(traj), settle_s=1.0)
-    assert np.linalg.norm(crane.fk(q_end) - crane.fk(traj.q[-1])) < 0.01
+    assert np.linalg.norm(crane.fk(q_end) - crane.fk(traj.q[-1])) < 0.02
 
 
 def test_modification_contracts_the_error_by_one_minus_gain_times_L(setting):
