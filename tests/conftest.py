@@ -1,4 +1,5 @@
-"""Shared fixtures (the shipped cranes, seeded joint-space sampling) and the test tiers' markers.
+"""Shared fixtures (the shipped cranes, seeded joint-space sampling), the test tiers' markers and
+the hypothesis profile (derandomized unless ``HYPOTHESIS_PROFILE=explore``).
 
 Tests marked ``notebook``, ``browser`` or ``cluster`` are also ``slow``, so that
 ``pytest -m "not slow"`` leaves every long-running kind out.
@@ -6,12 +7,20 @@ Tests marked ``notebook``, ``browser`` or ``cluster`` are also ``slow``, so that
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 
 import numpy as np
 import pytest
+from hypothesis import settings
 
 from motionlib.model.kinematics import Crane
+
+# Property tests draw the same examples on every run (seeded randomness: a CI failure can be
+# reproduced); set HYPOTHESIS_PROFILE=explore to search with fresh random examples.
+settings.register_profile("seeded", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "seeded"))
 
 SHIPPED_CRANES = ("lab", "forwarder")
 SLOW_KINDS = ("notebook", "browser", "cluster")
