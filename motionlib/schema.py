@@ -79,6 +79,30 @@ class StrictLoader(_StrictConstruction, getattr(yaml, "CSafeLoader", yaml.SafeLo
     """
 
 
+def read_text(path: str | Path, max_bytes: int = MAX_FILE_BYTES, what: str = "a model file") -> str:
+    """The text of a UTF-8 file (a BOM is dropped), read strictly.
+
+    Raises
+    ------
+    ModelFileError
+        The file is missing or unreadable, larger than ``max_bytes`` (then it is not ``what``),
+        or not UTF-8 (the message names the byte and its line).
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            raw = handle.read(max_bytes + 1)
+    except OSError as exc:
+        raise ModelFileError(f"{path}: cannot read file ({exc.strerror or exc})") from exc
+    if len(raw) > max_bytes:
+        raise ModelFileError(f"{path}: file larger than {max_bytes // 2**20} MiB; not {what}")
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ModelFileError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line})") from exc
+
+
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML file whose top level is a mapping.
 
@@ -89,18 +113,7 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         not valid YAML, has a key twice in one mapping, or its top level is not a mapping.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as handle:
-            raw = handle.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise ModelFileError(f"{path}: cannot read file ({exc.strerror or exc})") from exc
-    if len(raw) > MAX_FILE_BYTES:
-        raise ModelFileError(f"{path}: file larger than {MAX_FILE_BYTES // 2**20} MiB; not a model file")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        raise ModelFileError(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at line {line})") from exc
+    text = read_text(path)
     try:
         data = yaml.load(text, Loader=StrictLoader)  # noqa: S506 (a SafeLoader subclass)
     except yaml.reader.ReaderError as exc:

@@ -30,6 +30,7 @@ import numpy as np
 from ..errors import ModelFileError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
+from ..schema import read_text
 
 RECORDING_FORMAT = "motionlib recording 1"
 JOINT_COLUMNS = ("t", "q1", "q2", "q3", "q4")
@@ -39,6 +40,8 @@ GRAPPLE_EVENTS = ("close", "open")
 HEADER_KEYS = ("format", "crane", "scene", "operator", "description")
 #: A recording's joint positions may lie this far outside the crane's limits (rad or m): encoder tolerance.
 LIMIT_TOLERANCE = 0.02
+#: Largest recording file read (bytes): about 4 h at 200 Hz.
+MAX_RECORDING_BYTES = 256 * 1024 * 1024
 #: Longest gap between two samples (s) before a recording is rejected as having a hole.
 MAX_SAMPLE_GAP_S = 1.0
 
@@ -151,14 +154,7 @@ def write_recording(path: str | Path, rec: Recording, scene_path: str | None = N
 
 # ------------------------------------------------------------------------- CSV
 def _read_csv(path: Path, crane: Crane | None, scene: Scene | None) -> Recording:
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise ModelFileError(f"{path}: cannot read file ({exc.strerror})") from exc
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ModelFileError(f"{path}: expected UTF-8 text, found byte 0x{raw[exc.start]:02x} at {exc.start}") from exc
+    text = read_text(path, MAX_RECORDING_BYTES, "a recording")
     header: dict[str, str] = {}
     body: list[tuple[int, str]] = []
     for lineno, line in enumerate(text.splitlines(), start=1):

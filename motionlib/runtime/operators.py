@@ -86,6 +86,7 @@ from ..errors import InputError, ModelFileError
 from ..fileio import path_exists
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
+from ..schema import read_text
 from .control_types import Mode, OperatorInput
 from .sources import CartesianJoystick, JointJoystick, RateSource
 
@@ -201,18 +202,7 @@ class ScriptedStick:
             columns, unparsable numbers or bad times; the message names file and line.
         """
         path = Path(path)
-        try:
-            with open(path, "rb") as handle:
-                raw = handle.read(MAX_SCRIPT_BYTES + 1)
-        except OSError as exc:
-            raise ModelFileError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-        if len(raw) > MAX_SCRIPT_BYTES:
-            raise ModelFileError(f"{path}: larger than {MAX_SCRIPT_BYTES // 2**20} MiB; not a stick script")
-        try:
-            text = raw.decode("utf-8-sig")
-        except UnicodeDecodeError as exc:
-            line = raw[: exc.start].count(b"\n") + 1
-            raise ModelFileError(f"{path}:{line}: not UTF-8 text (byte 0x{raw[exc.start]:02x})") from exc
+        text = read_text(path, MAX_SCRIPT_BYTES, "a stick script")
         lines = [
             (n, ln) for n, ln in enumerate(text.splitlines(), start=1) if ln.strip() and not ln.lstrip().startswith("#")
         ]

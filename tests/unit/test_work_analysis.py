@@ -142,5 +142,5 @@ def test_bad_csv_names_file_and_line(tmp_path, text, message):
 def test_binary_file_is_a_clean_error(tmp_path):
     path = tmp_path / "bin.csv"
     path.write_bytes(b"# crane: forwarder\n\xff\xfe\x00")
-    with pytest.raises(ModelFileError, match="expected UTF-8 text"):
+    with pytest.raises(ModelFileError, match=r"not UTF-8 text \(byte 0xff at line 2\)"):
         read_recording(path)
