@@ -17,6 +17,14 @@ Modules, one concept each:
 * :mod:`~motionlib.experiment.stats`: Table 1, Figs. 9-10, transitions, findings;
 * :mod:`~motionlib.experiment.runner`: every series in parallel, and the library;
 * :mod:`~motionlib.experiment.report`: CSV, PNG, markdown and JSON outputs.
+
+Further simulated studies beside the experiment:
+
+* :mod:`~motionlib.experiment.recorded_work`: recorded forwarder work made by simulated
+  operators (the data set of ``data/recorded-work``, 003 chapter 3);
+* :mod:`~motionlib.experiment.gaze_study`: gaze-selected targets and eq. 5.7 (003 section 5.3);
+* :mod:`~motionlib.experiment.open_loop_study`: open-loop execution with trajectory
+  modification against closed loop (003 Paper II).
 """
 
 from __future__ import annotations
