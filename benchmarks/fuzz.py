@@ -345,28 +345,17 @@ def _mutate_json(record: Any, rng: np.random.Generator, delete: bool) -> None:
     """Replace (or delete) one leaf of a JSON record, in place."""
     node = record
     for _ in range(8):
-        if isinstance(node, dict) and node:
-            key = _pick(rng, list(node))
-            child = node[key]
-            if not isinstance(child, dict | list) or not child or rng.random() < 0.3:
-                if delete:
-                    del node[key]
-                else:
-                    node[key] = _pick(rng, GARBAGE_VALUES)
-                return
-            node = child
-        elif isinstance(node, list) and node:
-            i = int(rng.integers(len(node)))
-            child = node[i]
-            if not isinstance(child, dict | list) or not child or rng.random() < 0.3:
-                if delete:
-                    del node[i]
-                else:
-                    node[i] = _pick(rng, GARBAGE_VALUES)
-                return
-            node = child
-        else:
+        if not isinstance(node, dict | list) or not node:
             return
+        key = _pick(rng, list(node)) if isinstance(node, dict) else int(rng.integers(len(node)))
+        child = node[key]
+        if not isinstance(child, dict | list) or not child or rng.random() < 0.3:
+            if delete:
+                del node[key]
+            else:
+                node[key] = _pick(rng, GARBAGE_VALUES)
+            return
+        node = child
     if isinstance(record, dict):
         record["unknown"] = 1
 

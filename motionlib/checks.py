@@ -104,6 +104,11 @@ def short(value: Any, limit: int = 80) -> str:
     return text if len(text) <= limit else f"{text[: limit - 3]}..."
 
 
+def as_vec3(values: Any) -> tuple[float, float, float]:
+    """The first three entries of ``values`` as a tuple of floats (for values already checked)."""
+    return (float(values[0]), float(values[1]), float(values[2]))
+
+
 def rounded(values: Any, digits: int = 6) -> list[float]:
     """``values`` (a 1-d array) as a list of floats rounded for a message, without overflow at 1e308."""
     return [round(float(x), digits) for x in np.ravel(values)]

@@ -155,10 +155,8 @@ def gaze_selection_study(
     for li, level in enumerate(levels):
         person = GazeOperator(base.A, base.b, float(np.radians(level)))
         looked = pts - np.array([0.0, 0.0, tip_above_m])
-        cal_gaze = gaze_angles(e, looked[rng.integers(0, len(pts), n_calibration)])
-        model = HeadGazeModel.calibrate(person.head_for(cal_gaze, rng), cal_gaze)
         for trial in range(n_trials):
-            if trial and trial % per_operator == 0:  # the next simulated operator, calibrated anew
+            if trial % per_operator == 0:  # the next simulated operator, calibrated anew
                 cal_gaze = gaze_angles(e, looked[rng.integers(0, len(pts), n_calibration)])
                 model = HeadGazeModel.calibrate(person.head_for(cal_gaze, rng), cal_gaze)
             k = rng.integers(0, len(pts))

@@ -36,7 +36,7 @@ from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
 from ..runtime.execute import ExecuteOptions, execute
-from ..runtime.open_loop import OpenLoopOptions, TrajectoryModification
+from ..runtime.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
 from ..runtime.plant import SimParams, SimulatedCrane
 
 
@@ -129,7 +129,7 @@ def open_loop_study(
 
     goal = crane.fk(traj.q[-1])
     learned = TrajectoryModification(traj, open_loop or OpenLoopOptions())
-    plain = TrajectoryModification(traj, learned.options)
+    plain = feed_forward(traj, learned.options)
     for _ in range(o.n_learn):
         loaded, q0 = condition()
         learned.execute(machine(q0, loaded), loaded, learn=True)
@@ -140,7 +140,8 @@ def open_loop_study(
     for k in range(o.n_runs):
         loaded, q0 = condition()
         loads.append(loaded)
-        before.append(_tip_error(crane, plain.execute(machine(q0, loaded), loaded, learn=False), goal))
+        q_plain = run_open_loop(machine(q0, loaded), plain, learned.options.settle_s)
+        before.append(_tip_error(crane, q_plain, goal))
         after.append(_tip_error(crane, learned.execute(machine(q0, loaded), loaded, learn=False), goal))
         closed_sim = replace(sim_params, payload_frac=1.0 if loaded else 0.0)
         closed.append(_closed_loop_error(traj, crane, scene, q0, closed_sim, k, goal))

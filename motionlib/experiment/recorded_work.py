@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..analysis.recording import GrappleEvent, Recording
-from ..checks import check_int
+from ..checks import as_vec3, check_int
 from ..errors import InputError
 from ..model.kinematics import Crane
 from ..model.scene import Region, Scene
@@ -92,22 +92,23 @@ def site_layout(scene: Scene, cycles: int, seed: int) -> SiteLayout:
 def site_scenario(scene: Scene, crane: Crane, layout: SiteLayout, options: ScenarioOptions) -> Scenario:
     """The loading task on the site: one log per grab point, released over the drop region."""
     drop = _region(scene, DROP_REGION)
+    start = [float(v) for v in scene.start(BUNK_START)]
     logs = []
     for k, (g, r, pile) in enumerate(zip(layout.grab_p, layout.release_p, layout.piles, strict=True)):
         region = _region(scene, pile)
         log_center = (float(g[0]), float(g[1]), float(g[2] - crane.model.grapple_length))
         logs.append(Log(
             name=f"log-{k + 1}", center=log_center, axis_xy=(1.0, 0.0), area=pile,
-            area_center=_vec3(region.center), grab_p=_vec3(g), release_p=_vec3(r),
+            area_center=as_vec3(region.center), grab_p=as_vec3(g), release_p=as_vec3(r),
         ))
     return Scenario(
         logs=tuple(logs),
-        target_center=_vec3(drop.center),
+        target_center=as_vec3(drop.center),
         target_lower=(float(drop.lower[0]), float(drop.lower[1])),
         target_upper=(float(drop.upper[0]), float(drop.upper[1])),
         out_end=None,
         back_end=None,
-        start_q=_vec4(scene.start(BUNK_START)),
+        start_q=(start[0], start[1], start[2], start[3]),
         options=options,
     )
 
@@ -209,13 +210,3 @@ def _region(scene: Scene, name: str) -> Region:
         return scene.region(name)
     except (KeyError, InputError) as exc:
         raise InputError(f"scene {scene.name!r}: recorded work needs the region {name!r}") from exc
-
-
-def _vec3(v: Any) -> tuple[float, float, float]:
-    a = np.asarray(v, dtype=float)
-    return (float(a[0]), float(a[1]), float(a[2]))
-
-
-def _vec4(v: Any) -> tuple[float, float, float, float]:
-    a = np.asarray(v, dtype=float)
-    return (float(a[0]), float(a[1]), float(a[2]), float(a[3]))

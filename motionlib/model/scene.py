@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..checks import COORDINATE_M, Plausible, short
+from ..checks import COORDINATE_M, Plausible, as_vec3, short
 from ..errors import InputError, ModelFileError
 from ..schema import Section, check_count, check_number_list, load_yaml, read_plausibility
 from .crane_model import JOINT_NAMES
@@ -381,18 +381,14 @@ def _vector_positive(sec: Section, key: str) -> tuple[float, float, float]:
         if not v > 0:
             sec.fail(f"{key}[{i}]", f"expected a number > 0, got {v}")
         sec.check_plausible(f"{key}[{i}]", v, PLAUSIBLE["size"])
-    return _vec3(values)
-
-
-def _vec3(values: list[float]) -> tuple[float, float, float]:
-    return (values[0], values[1], values[2])
+    return as_vec3(values)
 
 
 def _read_obstacle(sec: Section) -> Obstacle:
     name = _name(sec, "name")
     shape = sec.string("shape", choices=SHAPES)
-    xyz = _vec3(sec.vector("xyz", 3, plausible=PLAUSIBLE["position"]))
-    rpy = _vec3(sec.vector("rpy", 3, [0.0, 0.0, 0.0], plausible=PLAUSIBLE["angle"]))
+    xyz = as_vec3(sec.vector("xyz", 3, plausible=PLAUSIBLE["position"]))
+    rpy = as_vec3(sec.vector("rpy", 3, [0.0, 0.0, 0.0], plausible=PLAUSIBLE["angle"]))
     kw: dict[str, Any] = {}
     size = PLAUSIBLE["size"]
     if shape == "box":
@@ -434,7 +430,7 @@ def _read_mesh(sec: Section) -> tuple[tuple, tuple]:
 
 
 def _read_region(sec: Section) -> Region:
-    center = _vec3(sec.vector("center", 3, plausible=PLAUSIBLE["position"]))
+    center = as_vec3(sec.vector("center", 3, plausible=PLAUSIBLE["position"]))
     region = Region(name=_name(sec, "name"), center=center, size=_vector_positive(sec, "size"))
     sec.done()
     return region

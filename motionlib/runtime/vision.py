@@ -25,7 +25,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-from ..checks import check_int, check_params, check_scalar, check_vector, param
+from ..checks import as_vec3, check_int, check_params, check_scalar, check_vector, param
 from ..model.frames import Mat3, mrf_position, rotate, tip_rate_for
 from .sources import RateSource, StepContext, Vec3
 
@@ -105,8 +105,8 @@ class SimulatedCamera:
 
     def __init__(self, target: Any, params: CameraParams | None = None, offset: Any = (0.0, 0.0, 0.0)):
         self.params = params or CameraParams()
-        self.target: Vec3 = _vec3(check_vector(target, 3, "target"))
-        self.offset: Vec3 = _vec3(check_vector(offset, 3, "offset"))
+        self.target: Vec3 = as_vec3(check_vector(target, 3, "target"))
+        self.offset: Vec3 = as_vec3(check_vector(offset, 3, "offset"))
         self._rng = random.Random(int(self.params.seed))
         self._pending: deque[tuple[float, CameraFrame]] = deque()
         self._latest: CameraFrame | None = None
@@ -195,7 +195,7 @@ class VisionSource(RateSource):
     ):
         super().__init__(name, gains, enabled)
         self.camera = camera
-        self.goal: Vec3 = _vec3(check_vector(goal_l, 3, "goal_l"))
+        self.goal: Vec3 = as_vec3(check_vector(goal_l, 3, "goal_l"))
         self.v_max = check_scalar(v_max_m_s, "v_max_m_s", gt=0.0)
         self.arrive_tol = check_scalar(arrive_tol_m, "arrive_tol_m", gt=0.0)
         self.arrive_speed = check_scalar(arrive_speed_m_s, "arrive_speed_m_s", gt=0.0)
@@ -222,7 +222,3 @@ class VisionSource(RateSource):
 
     def arrived(self, ctx: StepContext) -> bool:
         return self.visible and self.dist_end_m <= self.arrive_tol and ctx.tip_speed <= self.arrive_speed
-
-
-def _vec3(a: Any) -> Vec3:
-    return (float(a[0]), float(a[1]), float(a[2]))
