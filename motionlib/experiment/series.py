@@ -243,12 +243,18 @@ class RunOptions:
         The controller's command ramp (``ControllerParams.command_ramp``). Off by default, as
         000 ran its experiment: an abrupt command is limited by the machine only
         (``motionlib execute`` has it on).
+    swing_damping : bool
+        The controller's swing damping (``ControllerParams.swing_damping``). Off by default:
+        000 describes no anti-sway (section 3.1: the grapple swings on an unactuated joint and
+        its rotation is the operator's); ``motionlib execute`` has it on. The position gain
+        derived from the joint model applies either way.
     scenario : ScenarioOptions
     """
 
     time_limit_s: float = 900.0
     guard: bool = False
     command_ramp: bool = False
+    swing_damping: bool = False
     scenario: ScenarioOptions = field(default_factory=ScenarioOptions)
 
 
@@ -274,7 +280,10 @@ class ExperimentContext:
         self.guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
         self.execute_options = ExecuteOptions(
             time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard,
-            controller=ControllerParams(command_ramp=self.options.command_ramp),
+            controller=ControllerParams(
+                command_ramp=self.options.command_ramp,
+                swing_damping=ControllerParams().swing_damping if self.options.swing_damping else 0.0,
+            ),
         )
 
 

@@ -22,6 +22,9 @@ _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
 
+#: Standard gravity (m/s^2).
+GRAVITY_M_S2 = 9.81
+
 class Mode(enum.Enum):
     """Operating modes of 000 section 3.3."""
 
@@ -88,14 +91,19 @@ class CraneState:
         Joint positions (rad, rad, rad, m).
     qd : sequence of 4 float
         Joint velocities (rad/s, rad/s, rad/s, m/s).
+    swing : sequence of 3 float or None
+        The grapple's offset from the tip (m, base frame), as angle sensors on the grapple's
+        two-axis link measure it (the rod length times the direction of the rod); None: not
+        measured (the controller's swing damping then does nothing).
     """
 
-    __slots__ = ("t", "q", "qd")
+    __slots__ = ("t", "q", "qd", "swing")
 
-    def __init__(self, t: float, q: Sequence[float], qd: Sequence[float]):
+    def __init__(self, t: float, q: Sequence[float], qd: Sequence[float], swing: Sequence[float] | None = None):
         self.t = t
         self.q = q
         self.qd = qd
+        self.swing = swing
 
     def __repr__(self) -> str:
         return f"CraneState(t={self.t!r}, q={tuple(self.q)!r}, qd={tuple(self.qd)!r})"
@@ -205,6 +213,27 @@ class ControllerParams:
         command may step and only the machine limits it (valve lag, flow saturation, pump,
         relief valves: :mod:`motionlib.runtime.plant`); 000's experiment ran without such a ramp.
         Stale input and a bad state then command 0 at once.
+    swing_damping : float
+        Damping ratio ``zeta_s`` that the swing damping adds to the grapple pendulum (0: off).
+        The automation and the operator's tip velocity get ``k_s r_h`` added, ``r_h`` the
+        horizontal offset of the grapple from the tip (``CraneState.swing``, measured by angle
+        sensors on the grapple link; without it nothing is added), ``k_s = 2 zeta_s sqrt(g / L)``
+        (``L`` the crane's ``grapple_length``): a tip that follows its command makes the small
+        swing obey ``r'' + (c + k_s) r' + (g / L) r = 0``, i.e. the linear swing-angle feedback
+        of crane anti-sway control (Abdel-Rahman, Nayfeh & Masoud 2003, *Dynamics and control
+        of cranes: a review*, J. Vibration and Control 9(7)). 0.45: assumption, chosen on six
+        log-loading library rows (0.3 and 0.6 settle later; docs/runtime.md).
+    swing_damping_max_m_s : float
+        Largest tip speed (m/s) the swing damping adds (its vector is scaled down beyond). Assumption.
+    joint_natural_freq_hz, joint_damping_ratio : float
+        The identified second-order model of the joints' velocity response (000 section 2.1)
+        that the automation's position gain is derived from (:meth:`SharedController.position_gain_max`);
+        here the simulated plant's values (:class:`~motionlib.runtime.plant.SimParams`).
+    position_gain_margin : float
+        Gain margin of the automation's position loop (the tracker's final convergence
+        ``end_gain_per_s`` is capped at the gain with this margin on the joint model loaded by
+        the grapple); 3 (~10 dB) leaves room for the valve lag and the command ramp the model
+        omits. Assumption. 0: no cap.
     """
 
     dt_s: float = param(0.005, gt=0.0)
@@ -222,6 +251,11 @@ class ControllerParams:
     brake_decel_frac: float = param(0.5, gt=0.0, le=1.0)
     lag_s: float = param(0.15, ge=0.0)
     command_ramp: bool = True
+    swing_damping: float = param(0.45, ge=0.0, le=2.0)
+    swing_damping_max_m_s: float = param(1.0, ge=0.0)
+    joint_natural_freq_hz: float = param(2.5, gt=0.0, le=100.0)
+    joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
+    position_gain_margin: float = param(3.0, ge=0.0)
 
     def __post_init__(self) -> None:
         check_params(self)

@@ -17,6 +17,14 @@ states and joystick samples. One step:
    operator has no effect while the automated motion runs; it ends on arrival or when the
    operator presses abort, then control is manual. *Shared*: ``p_s = c_a p_a + c_o p_o``
    (000 eq. 4, :mod:`motionlib.runtime.mixer`), with handover to manual in weak zones.
+   **Swing damping** (``ControllerParams.swing_damping``, on by default): ``k_s r_h`` is
+   added to the tip velocity in every mode (Cartesian: to ``p_s``; manual joint operation:
+   resolved with the nominal weights and added to the operator's joint rates), ``r_h`` the
+   measured horizontal offset of the grapple from the tip (``CraneState.swing``), bounded by
+   ``swing_damping_max_m_s``. **Position gain**: a new motion's tracker gets its final
+   convergence gain capped by :meth:`SharedController.position_gain_max` (the gain margin on
+   the identified joint model loaded by the grapple). Without both, the swinging load on the
+   oil springs kept the tip from settling for 3-9x the planned duration (docs/runtime.md).
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
    i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
    weights of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`, SVD-equivalent damping
@@ -41,6 +49,7 @@ Flags and events are in :attr:`SharedController.status` and :attr:`SharedControl
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -50,6 +59,7 @@ from ..model.fast_kinematics import TipKinematics, Vec3, Vec4
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
 from .control_types import (
+    GRAVITY_M_S2,
     Authority,
     ControllerParams,
     ControllerStatus,
@@ -142,6 +152,10 @@ class SharedController:
         self._w_free_lo = tuple((crane.q_min + prm.limit_weight_margin * span).tolist())
         self._w_free_hi = tuple((crane.q_max - prm.limit_weight_margin * span).tolist())
         self._lag = float(prm.lag_s)
+        # swing damping (ControllerParams.swing_damping): tip velocity k_s r_h, k_s = 2 zeta_s sqrt(g / L)
+        self.swing_gain_per_s = 2.0 * prm.swing_damping * math.sqrt(GRAVITY_M_S2 / crane.model.grapple_length)
+        self._sway_max = float(prm.swing_damping_max_m_s)
+        self._swing_meas: Any = None
         self._w_lo = tuple(crane.q_min.tolist())
         self._w_hi = tuple(crane.q_max.tolist())
         self._w_width = tuple((prm.limit_weight_margin * span).tolist())
@@ -211,11 +225,46 @@ class SharedController:
         PathTracker
             The tracker of the motion (also :attr:`tracker`).
         """
-        tracker = PathTracker(trajectory, self.crane, self.tracker_params)
+        gain = min(self.tracker_params.end_gain_per_s, self.position_gain_max(trajectory.q))
+        tracker = PathTracker(trajectory, self.crane, replace(self.tracker_params, end_gain_per_s=gain))
         self.tracker = tracker
         self._motion_end = tracker.end
         self._begin(PathTrackerSource(tracker), t, f"{trajectory.duration_s:.3f} s planned")
         return tracker
+
+    def position_gain_max(self, q: Any) -> float:
+        """Largest position-loop gain (1/s) on the joint model, loaded by the grapple, at configurations ``q`` (n, 4).
+
+        The automation closes a position loop ``p_dot = k (p_goal - p)`` (the tracker's final
+        convergence ``k_end``) around joints whose velocity responds as the identified
+        second-order model ``omega^2 / (s^2 + 2 zeta omega s + omega^2)`` (000 section 2.1;
+        ``ControllerParams.joint_natural_freq_hz``, ``joint_damping_ratio``). The load on the
+        rod adds ``rho_i = m |J_i|^2 / I_i`` to joint ``i``'s inertia (``m`` the crane's
+        ``load_mass``, ``I_i`` its ``joint_inertia``, ``J_i`` the tip Jacobian's column), so
+        spring and damping act on ``1 + rho`` times the inertia: ``2 zeta omega`` becomes
+        ``2 zeta omega / (1 + rho)``. The loop ``k / s`` times that response has its phase
+        crossover at the natural frequency, where its gain is ``k (1 + rho) / (2 zeta omega)``;
+        a gain margin ``GM`` (``position_gain_margin``) gives::
+
+            k_max = 2 zeta omega / (GM (1 + max_i rho_i))
+
+        (the largest ``rho`` over the configurations and joints). ``inf`` when the margin is 0 (no cap).
+        """
+        prm = self.params
+        if prm.position_gain_margin == 0.0:
+            return math.inf
+        rho = 0.0
+        model = self.crane.model
+        if model.load_mass and model.joint_inertia is not None:
+            qs = np.atleast_2d(np.asarray(q, dtype=np.float64))
+            inv_inertia = [model.load_mass / float(i) for i in model.joint_inertia]
+            for row in qs[:: max(1, len(qs) // 50)].tolist() + [qs[-1].tolist()]:
+                _, jac = self.kin.tip_jacobian(row[0], row[1], row[2], row[3])
+                for i in range(4):
+                    r = (jac[i] ** 2 + jac[4 + i] ** 2 + jac[8 + i] ** 2) * inv_inertia[i]
+                    rho = max(rho, r)
+        omega = 2.0 * math.pi * prm.joint_natural_freq_hz
+        return 2.0 * prm.joint_damping_ratio * omega / (prm.position_gain_margin * (1.0 + rho))
 
     def go_to(
         self, goal_p: Any, gains: Any = (1.5, 1.5, 1.5), v_max_m_s: float = 0.5, t: float = 0.0
@@ -319,6 +368,8 @@ class SharedController:
             cmd = self._ramp_to_zero()
             st.authority, st.c_a, st.c_o, st.flags, st.qd_cmd = _STOPPED, 0.0, 1.0, flags, cmd
             return np.array(cmd)
+
+        self._swing_meas = getattr(state, "swing", None)
 
         # ---- kinematics and the sources' context
         p, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
@@ -432,7 +483,8 @@ class SharedController:
         if auto and self._traded:
             st.authority = _TRADED
             c_a = 1.0
-            ps = pa
+            sx, sy, sz = self._swing_damping()
+            ps = (pa[0] + sx, pa[1] + sy, pa[2] + sz)
             st.c_o = 1.0
         elif auto:  # shared
             st.authority = _SHARED
@@ -448,14 +500,24 @@ class SharedController:
             else:
                 gx, gy, gz = 0.0, 0.0, 0.0
                 st.c_o = 1.0
-            ps = (c_a * pa[0] + gx, c_a * pa[1] + gy, c_a * pa[2] + gz)
+            sx, sy, sz = self._swing_damping()
+            ps = (c_a * pa[0] + gx + sx, c_a * pa[1] + gy + sy, c_a * pa[2] + gz + sz)
             qo_weights = qo
         else:
             st.authority = _MANUAL
             if self._joint_operation:  # manual joint operation: the operator's joint rates directly
                 st.c_a, st.c_o = 0.0, 1.0
-                return (qo if qo is not None else _ZERO4), flags
-            ps, flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
+                qm = qo if qo is not None else _ZERO4
+                sway = self._swing_damping()
+                if sway[0] == 0.0 and sway[1] == 0.0:
+                    return qm, flags
+                prm = self.params  # ... plus the swing damping's tip velocity, resolved (000 eq. 2)
+                qs, _, _ = resolve_rate_fast(ctx.jac, sway, self._weights(ctx.q, None), _ZERO4,
+                                             prm.sigma_threshold, prm.damping_max)
+                return (qm[0] + qs[0], qm[1] + qs[1], qm[2] + qs[2], qm[3] + qs[3]), flags
+            (gx, gy, gz), flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
+            sx, sy, sz = self._swing_damping()
+            ps = (gx + sx, gy + sy, gz + sz)
         st.c_a = c_a
 
         # resolved rate (000 eq. 2, 001 eq. 7)
@@ -470,6 +532,24 @@ class SharedController:
         if lam > 0.0:
             flags |= _DAMPED
         return qd, flags
+
+    def _swing_damping(self) -> Vec3:
+        """The swing damping's tip velocity ``k_s r_h`` (3,) (m/s), bounded (see the module docstring, step 4)."""
+        k = self.swing_gain_per_s
+        r = self._swing_meas
+        if k == 0.0 or r is None:
+            return _ZERO3
+        try:
+            vx, vy = k * float(r[0]), k * float(r[1])
+        except (TypeError, ValueError, IndexError):
+            return _ZERO3
+        n = math.sqrt(vx * vx + vy * vy)
+        if not n <= self._sway_max:  # too fast, or NaN (not measured)
+            if not math.isfinite(n):
+                return _ZERO3
+            c = self._sway_max / n
+            vx, vy = c * vx, c * vy
+        return (vx, vy, 0.0)
 
     def _guard(self, q: Vec4, po: Vec3, flags: int) -> tuple[Vec3, int]:
         if self.guard is None:

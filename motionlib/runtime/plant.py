@@ -62,11 +62,8 @@ from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..errors import InputError
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
-from .control_types import CraneState
+from .control_types import GRAVITY_M_S2, CraneState
 from .hydraulics import HydraulicJoints
-
-GRAVITY_M_S2 = 9.81
-
 
 MODELS = ("second_order", "first_order")
 
@@ -277,8 +274,9 @@ class SimulatedCrane:
 
     # --------------------------------------------------------------- read-out
     def state(self) -> CraneState:
-        """The measured state (time, joint positions, joint velocities)."""
-        return CraneState(self.t, self.q, self.qd)
+        """The measured state (time, joint positions, joint velocities, the grapple's offset from the tip)."""
+        g, p = self.grapple, self.tip
+        return CraneState(self.t, self.q, self.qd, (g[0] - p[0], g[1] - p[1], g[2] - p[2]))
 
     @property
     def swing_rad(self) -> float:

@@ -61,9 +61,11 @@ def test_passive_m6_json_summary_and_run_log(library, tmp_path: Path):
     assert summary["handover_time_s"] is None and summary["arrival_time_s"] is not None
     # a passive operator leaves the tip at the library end point
     assert summary["final_error_m"] == pytest.approx(np.linalg.norm(target - ends[0]), abs=0.01)
-    # second-order hydraulic joints and the swinging grapple's pull: a few cm off the path
-    # (on the first-order plant without the load, tests/integration/test_controller.py asks < 2 cm)
-    assert summary["max_deviation_m"] < 0.1
+    # second-order hydraulic joints and the swinging grapple's pull: a few cm off the path, and
+    # the swing damping lets the tip follow the grapple past the end point by up to ~0.3 m while
+    # it stops the swing (docs/runtime.md; on the first-order plant without the load and without
+    # the swing damping, tests/integration/test_controller.py asks < 2 cm)
+    assert summary["max_deviation_m"] < 0.35
     assert summary["log"] == str(log)
     run = read_runlog(log)
     assert run["attrs"]["summary"]["final_error_m"] == summary["final_error_m"]

@@ -104,7 +104,7 @@ def test_joint_operation_raises_the_operators_joints():
 def test_velocity_scaling_keeps_the_direction_and_acceleration_is_bounded(lab):
     speed = np.minimum(-lab.qd_min, lab.qd_max)
     joystick = JointJoystick((3 * speed).tolist())  # full deflection asks for 3x the joint speeds
-    ctl = SharedController(lab, "M1", joystick=joystick)
+    ctl = SharedController(lab, "M1", ControllerParams(swing_damping=0.0), joystick=joystick)
     sim = SimulatedCrane(lab, Q_MID)
     axes = (0.5, -0.8, 0.2, 0.4)  # slew, jib, telescope, boom
     cmds = np.array(_drive(ctl, sim, axes, 1.0))
@@ -203,12 +203,14 @@ def test_traded_mode_ignores_the_operator_until_abort(planned):
 
 
 # the controller's kinematics are checked on the first-order plant without the load's pull: the
-# second-order joints ring and the swinging grapple pulls the arm (tests/unit/test_hydraulics.py)
+# second-order joints ring and the swinging grapple pulls the arm (tests/unit/test_hydraulics.py);
+# and without the swing damping, which moves the tip with the swinging grapple
 KINEMATIC_PLANT = SimParams(model="first_order", load_mass_kg=0.0)
+NO_SWING_DAMPING = ControllerParams(swing_damping=0.0)
 
 
 def test_manual_cartesian_moves_the_tip_as_the_stick_says(lab):
-    ctl = SharedController(lab, "M4")
+    ctl = SharedController(lab, "M4", NO_SWING_DAMPING)
     sim = SimulatedCrane(lab, Q_MID, KINEMATIC_PLANT)
     _drive(ctl, sim, (0.0, 0.5, 0.0, 0.0), 1.5)  # left_y: radially out
     v = lab.jacobian(np.array(sim.q)) @ np.array(sim.qd)
@@ -268,7 +270,7 @@ class ConstantRate(RateSource):
 
 
 def test_new_sources_plug_into_the_summing_junction(lab):
-    ctl = SharedController(lab, "M4")
+    ctl = SharedController(lab, "M4", NO_SWING_DAMPING)
     extra = ConstantRate((0.1, -0.05, 0.08), gains=(1.0, 1.0, 0.0))  # z disabled by a zero gain
     ctl.add_source(extra)
     sim = SimulatedCrane(lab, Q_MID, KINEMATIC_PLANT)
@@ -306,7 +308,7 @@ def planned_back(planned):
 @pytest.mark.parametrize("which", ["planned", "planned_back"])
 def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request):
     crane, _, traj = request.getfixturevalue(which)
-    ctl = SharedController(crane, "M6")
+    ctl = SharedController(crane, "M6", NO_SWING_DAMPING)
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], KINEMATIC_PLANT)
     res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=2 * traj.duration_s))
@@ -326,6 +328,85 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     assert np.linalg.norm(arr["tip_p"] - plan_tip[lagged], axis=1).max() < 0.07
     assert res.diagnostics["hard_stop_hits"] == 0
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
+
+
+def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams):
+    ctl = SharedController(crane, "M6", controller)
+    ctl.start_motion(traj)
+    sim = SimulatedCrane(crane, traj.q[0], plant)
+    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=6 * traj.duration_s))
+    return res, float(np.max(res.log.arrays(crane)["swing_rad"]))
+
+
+@pytest.mark.parametrize("which", ["planned", "planned_back"])
+def test_planned_motion_settles_on_the_hydraulic_plant_with_the_swinging_load(which, request):
+    """Default controller on the default plant (second order, the load's pull): it settles soon
+    after the plan ends, and the grapple swings less than on the first-order plant, where the
+    load does not act back, under a controller without swing damping (the reference, run here).
+    Without the swing damping and the loaded-joint gain cap the same runs settled after 3.1x and
+    4.4x the planned duration (with them: 1.7x, 2.0x; the first-order reference 1.03x)."""
+    crane, _, traj = request.getfixturevalue(which)
+    res, swing = _passive_run(crane, traj, ControllerParams(), SimParams())
+    ref, ref_swing = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams(model="first_order"))
+    assert ref.settled and ref.cycle_time_s < 1.2 * traj.duration_s
+    assert res.settled and res.cycle_time_s < 2.5 * traj.duration_s
+    assert [e.name for e in res.log.events] == ["motion_start", "arrival"]
+    assert swing < ref_swing
+    assert res.diagnostics["hard_stop_hits"] == 0
+
+
+def test_swing_damping_adds_the_derived_damping_to_the_pendulum(lab):
+    """Linear check of the law: a tip that follows ``k_s r_h`` makes the grapple's small swing
+    decay as ``exp(-(c + k_s) t / 2)`` (c the plant's own damping), ``k_s = 2 zeta_s sqrt(g / L)``.
+    Measured on the first-order plant (the tip follows its command with a short lag), from the
+    swing's decay over the first two periods, against the closed form."""
+    plant = SimParams(model="first_order", deadband_frac=0.0, tau_s=1e-3, accel_factor=1e3)
+    decay = {}
+    for zeta in (0.0, 0.1):
+        ctl = SharedController(lab, "M4", ControllerParams(swing_damping=zeta, command_ramp=False))
+        sim = SimulatedCrane(lab, Q_MID, plant)
+        sim.set_grapple((0.02, 0.0, -1.0))  # a small swing (0.036 rad) in the x-z plane
+        swing = []
+        for _ in range(int(round(3.0 / DT))):
+            st = sim.state()
+            ctl.step(st, OperatorInput(st.t, (0.0, 0.0, 0.0, 0.0)))
+            sim.advance(ctl.status.qd_cmd, DT)
+            swing.append(sim.swing_rad)
+        swing = np.array(swing)
+        period = 2 * math.pi * math.sqrt(sim.length_m / 9.81)
+        n = int(round(period / DT))
+        first, second = swing[:n].max(), swing[2 * n : 3 * n].max()
+        decay[zeta] = math.log(first / second) / (2 * period)  # amplitude rate (1/s)
+        k_s = ctl.swing_gain_per_s
+        assert k_s == pytest.approx(2 * zeta * math.sqrt(9.81 / lab.model.grapple_length))
+    c = SimParams().swing_damping_per_s
+    assert decay[0.0] == pytest.approx(c / 2, rel=0.1)
+    k_s = 2 * 0.1 * math.sqrt(9.81 / lab.model.grapple_length)
+    assert decay[0.1] == pytest.approx((c + k_s) / 2, rel=0.15)
+
+
+def test_position_gain_cap_is_the_gain_margin_on_the_loaded_joint_model(planned):
+    """``k_max = 2 zeta omega / (GM (1 + max rho))``, ``rho = m |J_i|^2 / I_i``, against a brute-force
+    evaluation: the loop gain ``|k / (j w) G(j w)|`` of the loaded second-order joint is ``1 / GM``
+    where its phase is -180 degrees."""
+    crane, _, traj = planned
+    prm = ControllerParams()
+    ctl = SharedController(crane, "M6", prm)
+    k = ctl.position_gain_max(traj.q)
+    m, inertia = crane.model.load_mass, np.array(crane.model.joint_inertia)
+    jac = np.array([crane.jacobian(q) for q in traj.q])  # (n, 3, 4)
+    rho = (m * (jac**2).sum(axis=1) / inertia).max()
+    w0, zeta = 2 * math.pi * prm.joint_natural_freq_hz, prm.joint_damping_ratio
+    w = np.linspace(0.1, 5 * w0, 200_001)
+    s = 1j * w
+    loop = k / s * (w0**2 / (1 + rho)) / (s**2 + 2 * zeta * w0 / (1 + rho) * s + w0**2 / (1 + rho))
+    i = np.argmin(np.abs(np.angle(loop) + np.pi) + 10 * (np.angle(loop) > 0))  # the -180 degree crossing
+    assert abs(loop[i]) == pytest.approx(1 / prm.position_gain_margin, rel=2e-2)
+    assert ctl.tracker is None
+    ctl.start_motion(traj)
+    assert ctl.tracker.params.end_gain_per_s == pytest.approx(min(k, 5.0))
+    uncapped = SharedController(crane, "M6", ControllerParams(position_gain_margin=0.0))
+    assert uncapped.position_gain_max(traj.q) == math.inf
 
 
 def test_mode_parsing():
