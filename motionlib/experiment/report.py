@@ -132,10 +132,13 @@ def _time_csv(path: Path, table: dict, key_name: str) -> Path:
 
 
 def _transitions_csv(out: Path, result: Any) -> Path:
-    header = ["operator", "group", "mode", "series", "cycle", "motion", "kind", "t_switch_s",
-              "peak_acceleration_m_s2", "peak_jerk_m_s3", "peak_speed_before_m_s", "blend_s"]
-    rows = [[t.operator, t.group, t.mode, t.series, t.cycle, t.motion, t.kind, t.t_switch, t.peak_acceleration_m_s2,
-             t.peak_jerk_m_s3, t.peak_speed_before_m_s, t.blend_s] for t in result.transitions]
+    header = ["operator", "group", "mode", "series", "cycle", "motion", "kind", "t_switch_s", "t_anchor_s",
+              "peak_acceleration_m_s2", "peak_jerk_m_s3", "auto_peak_acceleration_m_s2", "auto_peak_jerk_m_s3",
+              "excess_acceleration_m_s2", "excess_jerk_m_s3", "velocity_step_m_s", "peak_speed_before_m_s", "blend_s"]
+    rows = [[t.operator, t.group, t.mode, t.series, t.cycle, t.motion, t.kind, t.t_switch, t.t_anchor,
+             t.peak_acceleration_m_s2, t.peak_jerk_m_s3, t.auto_peak_acceleration_m_s2, t.auto_peak_jerk_m_s3,
+             t.excess_acceleration_m_s2, t.excess_jerk_m_s3, t.velocity_step_m_s, t.peak_speed_before_m_s, t.blend_s]
+            for t in result.transitions]
     return write_csv(out / "transitions.csv", header, rows)
 
 
@@ -479,8 +482,10 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
     lines += ["", "## Transitions from automatic to manual (000 Fig. 8)", "",
               f"Every end of an automated motion: an abort (traded), a handover in a weak zone (shared) or an "
               f"arrival. Peaks of the filtered tip acceleration and jerk from {TRANSITION_BEFORE_S:g} s before to "
-              f"{TRANSITION_AFTER_S:g} s after the switch; blend: median time for `c_a` to fall from 0.9 to 0.1 "
-              f"(0 for an abort).", ""]
+              f"{TRANSITION_AFTER_S:g} s after the anchor (the start of the blend in shared control, the abort "
+              f"in traded control, else the arrival); excess: the peak above the same motion's automation-only "
+              f"peak; step: the commanded tip velocity's step at the switch; blend: median time for `c_a` to "
+              f"fall from 0.9 to 0.1 (0 for an abort).", ""]
     rows = []
     for m in modes:
         for g in ("all", *GROUPS):
@@ -490,10 +495,12 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
             kinds = ", ".join(f"{k} {v}" for k, v in sorted(st.kinds.items()))
             rows.append([m, g, str(st.n), kinds, _f(st.median_peak_acceleration_m_s2),
                          _f(st.median_peak_jerk_m_s3, 1), _f(st.max_peak_jerk_m_s3, 1),
-                         _f(an.blend_s.get(m, math.nan)) if g == "all" else ""])
+                         _f(st.median_excess_acceleration_m_s2), _f(st.median_excess_jerk_m_s3, 1),
+                         _f(st.median_velocity_step_m_s), _f(an.blend_s.get(m, math.nan)) if g == "all" else ""])
     if rows:
         lines += [_md_table(["mode", "group", "n", "kinds", "median peak acc. (m/s^2)", "median peak jerk (m/s^3)",
-                             "max peak jerk (m/s^3)", "blend (s)"], rows)]
+                             "max peak jerk (m/s^3)", "median excess acc. (m/s^2)", "median excess jerk (m/s^3)",
+                             "median velocity step (m/s)", "blend (s)"], rows)]
     else:
         lines.append("No automated modes were run.")
     lines += ["", "![Fig. 8](fig8_transitions.png)", "", "![Peaks](fig8_peaks.png)",

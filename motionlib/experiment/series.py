@@ -20,8 +20,15 @@ joints and the shared pump) and a
   (:mod:`~motionlib.experiment.segment`), total jerk and peaks over the cycle
   (:mod:`~motionlib.experiment.measures`), attempts, how each automated motion ended;
 * one :class:`Transition` per automated motion that ended (``abort``, ``handover`` or
-  ``arrival``): the peaks of the filtered acceleration and jerk from ``TRANSITION_BEFORE_S``
-  before to ``TRANSITION_AFTER_S`` after the switch, and that excerpt (000 Fig. 8);
+  ``arrival``), measured as 000 section 4.1 describes (issue 12 item 4): the window runs from
+  ``TRANSITION_BEFORE_S`` before to ``TRANSITION_AFTER_S`` after its *anchor*, the start of
+  the blend in shared control (the last sample with ``c_a >= 0.9`` before the handover), the
+  abort in traded control, the arrival otherwise; in it the peaks of the filtered acceleration
+  and jerk, those peaks in excess of the same motion's automation-only peaks (from its start
+  to the anchor), and the step of the commanded tip velocity ``|J (qd_cmd_k - qd_cmd_k-1)|``
+  at the switch; and the excerpt (000 Fig. 8). The tip is filtered with the cutoff
+  ``1 / (2 pi tau_noise)``, ``tau_noise`` = 10 ms (000 section 4.1: the noise time scale
+  removed by a low-pass filter before differentiating; ``NOISE_FILTER``);
 * the tip path at ``PATH_RATE_HZ`` (000 Fig. 7).
 """
 
@@ -29,6 +36,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -43,6 +51,7 @@ from ..planning.trajectory import Trajectory
 from ..runtime.control_types import ControllerParams, Mode
 from ..runtime.execute import ExecuteOptions, prepare_run
 from ..runtime.loop import run_closed_loop
+from ..runtime.metrics import FilterOptions
 from ..runtime.runlog import RunLog
 from .measures import Signals
 from .panel import panel_operator
@@ -51,9 +60,14 @@ from .segment import segment_cycles
 from .task import LoadingTask, TaskEvent
 
 TRANSITION_BEFORE_S = 1.0
-"""Transition window (000 Fig. 8): seconds before the automatic-to-manual switch ..."""
+"""Transition window (000 Fig. 8): seconds before its anchor (blend start, abort or arrival) ..."""
 TRANSITION_AFTER_S = 2.0
 """... and after it."""
+NOISE_TIME_S = 0.01
+"""000 section 4.1: the noise time scale ``tau_noise ~ 10 ms`` removed by a low-pass filter (the
+text also prints ~1 ms, a cutoff above the 100 Hz Nyquist frequency of its 200 Hz logs)."""
+NOISE_FILTER = FilterOptions(cutoff_hz=1.0 / (2.0 * math.pi * NOISE_TIME_S))
+"""The tip filter of the experiment's measures: Butterworth (zero phase) at ``1 / (2 pi tau_noise)`` = 15.9 Hz."""
 TRANSITION_STEP = 2
 """Every ``TRANSITION_STEP``-th sample is kept in a transition's excerpt (100 Hz; peaks use all)."""
 PATH_RATE_HZ = 20.0
@@ -127,8 +141,16 @@ class Transition:
         ``abort`` (traded), ``handover`` (shared, weak zone) or ``arrival``.
     t_switch : float
         Time (s) of the switch.
+    t_anchor : float
+        Time (s) the window is anchored at: the start of the blend (shared handover), else the switch.
     peak_acceleration_m_s2, peak_jerk_m_s3 : float
         Peaks of the filtered tip acceleration and jerk in the window.
+    auto_peak_acceleration_m_s2, auto_peak_jerk_m_s3 : float
+        The same motion's peaks while the automation alone drove it (from its start to the anchor).
+    excess_acceleration_m_s2, excess_jerk_m_s3 : float
+        ``max(0, peak - automation-only peak)``: what the transition adds.
+    velocity_step_m_s : float
+        Step of the commanded tip velocity at the switch, ``|J(q) (qd_cmd_k - qd_cmd_k-1)|`` (m/s).
     peak_speed_before_m_s : float
         Largest filtered tip speed in the window before the switch (how fast the automation was going).
     blend_s : float
@@ -151,6 +173,12 @@ class Transition:
     peak_speed_before_m_s: float
     blend_s: float
     excerpt: dict[str, np.ndarray] = field(repr=False)
+    t_anchor: float = math.nan
+    auto_peak_acceleration_m_s2: float = math.nan
+    auto_peak_jerk_m_s3: float = math.nan
+    excess_acceleration_m_s2: float = math.nan
+    excess_jerk_m_s3: float = math.nan
+    velocity_step_m_s: float = math.nan
 
 
 @dataclass
@@ -330,8 +358,9 @@ def run_series(
     result.simulated_s = float(t[-1]) if t.size else 0.0
     result.events = list(task.events)
     if t.size >= 4:
-        signals = Signals.from_tip(t, tip)
-        _measure(result, ctx.scenario, task, signals, log.events, arrays["c_a"])
+        signals = Signals.from_tip(t, tip, NOISE_FILTER)
+        _measure(result, ctx.scenario, task, signals, log.events, arrays["c_a"],
+                 lambda k: _command_step(ctx.crane, arrays["q"], arrays["qd_cmd"], k))
         keep = max(1, int(round(1.0 / (PATH_RATE_HZ * controller.params.dt_s))))
         result.path_t, result.path_p = t[::keep].copy(), tip[::keep].copy()
     result.wall_s = time.perf_counter() - t_wall
@@ -349,8 +378,23 @@ def _blend_time(t: np.ndarray, c_a: np.ndarray, t_start: float, t_switch: float)
     return float(t[i0 + high[-1] + low[0]] - t[i0 + high[-1]]) if low.size else math.nan
 
 
+def _command_step(crane: Any, q: np.ndarray, qd_cmd: np.ndarray, k: int) -> float:
+    """``|J(q_k) (qd_cmd_k - qd_cmd_k-1)|`` (m/s): the commanded tip velocity's step at sample ``k`` (0 at k = 0)."""
+    if k <= 0 or k >= len(q):
+        return 0.0
+    return float(np.linalg.norm(crane.jacobian(q[k]) @ (qd_cmd[k] - qd_cmd[k - 1])))
+
+
+def _blend_start(t: np.ndarray, c_a: np.ndarray, t_start: float, t_switch: float) -> float:
+    """Time (s) of the last sample with ``c_a >= 0.9`` in ``[t_start, t_switch]`` (blend start); else ``t_switch``."""
+    i0, i1 = np.searchsorted(t, [t_start, t_switch + 1e-9])
+    high = np.flatnonzero(c_a[i0:i1] >= 0.9)
+    return float(t[i0 + high[-1]]) if high.size else float(t_switch)
+
+
 def _measure(
-    result: SeriesResult, scenario: Scenario, task: LoadingTask, sig: Signals, ctl_events: list, c_a: np.ndarray
+    result: SeriesResult, scenario: Scenario, task: LoadingTask, sig: Signals, ctl_events: list, c_a: np.ndarray,
+    command_step: Callable[[int], float],
 ) -> None:
     """Cycle records and transitions of a series from its filtered signals, events and mixing coefficient."""
     events = task.events
@@ -365,19 +409,29 @@ def _measure(
         ends[(cmd.cycle, cmd.name)] = sw.name if sw is not None else "running"
         if sw is None:
             continue
-        ex = sig.excerpt(sw.t, TRANSITION_BEFORE_S, TRANSITION_AFTER_S)
+        blend = {"abort": 0.0, "arrival": math.nan}.get(sw.name)
+        anchor = float(sw.t)
+        if blend is None:
+            blend = _blend_time(sig.t, c_a, cmd.t, sw.t)
+            anchor = _blend_start(sig.t, c_a, cmd.t, sw.t)
+        ex = sig.excerpt(anchor, TRANSITION_BEFORE_S, TRANSITION_AFTER_S)
         a2 = np.sum(ex["a"] ** 2, axis=1)
         j2 = np.sum(ex["j"] ** 2, axis=1)
         before = np.linalg.norm(ex["v"][ex["t"] <= 0.0], axis=1)
-        blend = {"abort": 0.0, "arrival": math.nan}.get(sw.name)
-        if blend is None:
-            blend = _blend_time(sig.t, c_a, cmd.t, sw.t)
+        peak_a = float(np.sqrt(a2.max())) if a2.size else 0.0
+        peak_j = float(np.sqrt(j2.max())) if j2.size else 0.0
+        auto = sig.window(cmd.t, anchor)  # the automation alone, from the motion's start to the anchor
+        k = int(np.searchsorted(sig.t, sw.t - 1e-9))  # the first step under the new authority
         step = slice(None, None, TRANSITION_STEP)
         result.transitions.append(Transition(
             result.operator, result.group, result.mode, result.series, cmd.cycle, cmd.name, sw.name, float(sw.t),
-            float(np.sqrt(a2.max())) if a2.size else 0.0, float(np.sqrt(j2.max())) if j2.size else 0.0,
-            float(before.max()) if before.size else 0.0, blend,
+            peak_a, peak_j, float(before.max()) if before.size else 0.0, blend,
             {key: value[step].copy() for key, value in ex.items()},
+            t_anchor=anchor,
+            auto_peak_acceleration_m_s2=auto["peak_acceleration_m_s2"], auto_peak_jerk_m_s3=auto["peak_jerk_m_s3"],
+            excess_acceleration_m_s2=max(0.0, peak_a - auto["peak_acceleration_m_s2"]),
+            excess_jerk_m_s3=max(0.0, peak_j - auto["peak_jerk_m_s3"]),
+            velocity_step_m_s=command_step(k),
         ))
     manual = "manual" if not task.automated else "running"
     for seg in segments:

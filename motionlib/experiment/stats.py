@@ -179,6 +179,10 @@ class TransitionStats:
         Number of switches per kind (``abort``, ``handover``, ``arrival``).
     median_peak_acceleration_m_s2, median_peak_jerk_m_s3 : float
     max_peak_acceleration_m_s2, max_peak_jerk_m_s3 : float
+    median_excess_acceleration_m_s2, median_excess_jerk_m_s3 : float
+        Median of the peaks in excess of the same motion's automation-only peaks (``Transition``).
+    median_velocity_step_m_s : float
+        Median step of the commanded tip velocity at the switch.
     """
 
     n: int
@@ -187,6 +191,9 @@ class TransitionStats:
     median_peak_jerk_m_s3: float
     max_peak_acceleration_m_s2: float
     max_peak_jerk_m_s3: float
+    median_excess_acceleration_m_s2: float = math.nan
+    median_excess_jerk_m_s3: float = math.nan
+    median_velocity_step_m_s: float = math.nan
 
 
 def _transition_stats(items: Sequence[Any]) -> TransitionStats:
@@ -197,7 +204,14 @@ def _transition_stats(items: Sequence[Any]) -> TransitionStats:
     jerk = [t.peak_jerk_m_s3 for t in items]
     if not items:
         return TransitionStats(0, kinds, math.nan, math.nan, math.nan, math.nan)
-    return TransitionStats(len(items), kinds, median(acc), median(jerk), max(acc), max(jerk))
+
+    def med(name: str) -> float:
+        values = [getattr(t, name, math.nan) for t in items]
+        values = [v for v in values if not math.isnan(v)]
+        return median(values) if values else math.nan
+
+    return TransitionStats(len(items), kinds, median(acc), median(jerk), max(acc), max(jerk),
+                           med("excess_acceleration_m_s2"), med("excess_jerk_m_s3"), med("velocity_step_m_s"))
 
 
 def transition_table(transitions: Iterable[Any]) -> dict[tuple[str, str], TransitionStats]:
@@ -328,6 +342,12 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
         sim = (f"M5 {t5.median_peak_acceleration_m_s2:.2f} m/s^2, {t5.median_peak_jerk_m_s3:.1f} m/s^3 (n {t5.n}); "
                f"M6 {t6.median_peak_acceleration_m_s2:.2f} m/s^2, {t6.median_peak_jerk_m_s3:.1f} m/s^3 (n {t6.n}); "
                f"ratio jerk {ratio:.2f}, acceleration {ratio_a:.2f}")
+        if t6.median_excess_jerk_m_s3 > 0:
+            sim += (f"; in excess of the automation-only peaks M5 {t5.median_excess_jerk_m_s3:.1f}, "
+                    f"M6 {t6.median_excess_jerk_m_s3:.1f} m/s^3 (ratio "
+                    f"{t5.median_excess_jerk_m_s3 / t6.median_excess_jerk_m_s3:.2f}, not the criterion)")
+        sim += (f"; commanded tip velocity step at the switch M5 {t5.median_velocity_step_m_s:.3f}, "
+                f"M6 {t6.median_velocity_step_m_s:.3f} m/s")
         t2, t3 = transitions.get(("M2", "all")), transitions.get(("M3", "all"))
         if t2 is not None and t3 is not None and t2.n and t3.n and t3.median_peak_jerk_m_s3 > 0:
             sim += f"; joint operation M2 / M3 jerk ratio {t2.median_peak_jerk_m_s3 / t3.median_peak_jerk_m_s3:.2f}"

@@ -31,6 +31,7 @@ from motionlib.experiment import (
 )
 from motionlib.experiment.measures import Signals
 from motionlib.experiment.segment import SUBTASKS, first_entry
+from motionlib.experiment.series import NOISE_FILTER, _blend_start, _command_step
 from motionlib.experiment.stats import (
     PAPER_TABLE1,
     TimeTable,
@@ -75,6 +76,24 @@ def test_total_jerk_of_a_cubic_per_window():
 def _leg(p0: np.ndarray, p1: np.ndarray, speed: float) -> np.ndarray:
     n = int(round(np.linalg.norm(p1 - p0) / speed / DT))
     return p0 + np.outer(np.arange(1, n + 1) / n, p1 - p0)
+
+
+def test_transition_anchor_and_command_step(lab):
+    """The shared window's anchor is the blend's start (last ``c_a >= 0.9``), found against a
+    constructed ramp; the commanded tip velocity step equals the finite difference of the forward
+    kinematics along the command's change; the filter's cutoff is ``1 / (2 pi 10 ms)``."""
+    t = np.arange(0.0, 4.0, 0.005)
+    c_a = np.clip(1.0 - (t - 2.0) / 0.5, 0.0, 1.0)  # blend from t = 2.0 to 2.5
+    brute = max(ti for ti, ci in zip(t, c_a, strict=True) if ci >= 0.9 and 1.0 <= ti <= 2.6)
+    assert _blend_start(t, c_a, 1.0, 2.6) == pytest.approx(brute) == pytest.approx(2.05)
+    assert _blend_start(t, np.zeros_like(t), 1.0, 2.6) == 2.6  # no blend seen: the switch itself
+    q = np.array([[0.2, 0.5, -1.3, 0.3], [0.2, 0.5, -1.3, 0.3]])
+    cmd = np.array([[0.1, 0.05, -0.1, 0.0], [-0.2, 0.1, 0.15, 0.2]])
+    h = 1e-6
+    fd = (lab.fk(q[1] + h * (cmd[1] - cmd[0])) - lab.fk(q[1] - h * (cmd[1] - cmd[0]))) / (2 * h)
+    assert _command_step(lab, q, cmd, 1) == pytest.approx(np.linalg.norm(fd), rel=1e-6)
+    assert _command_step(lab, q, cmd, 0) == 0.0
+    assert NOISE_FILTER.cutoff_hz == pytest.approx(1 / (2 * math.pi * 0.01))
 
 
 def test_segmentation_of_a_constructed_log():
@@ -318,6 +337,17 @@ def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path):
         parts = [float(r[col[f"{s}_s"]]) for s in SUBTASKS]
         assert sum(parts) == pytest.approx(float(r[col["cycle_time_s"]]), abs=1e-3) and min(parts) >= 0.0
         assert float(r[col["total_jerk"]]) > 0.0
+    trows = (out / "transitions.csv").read_text().strip().splitlines()
+    theader = trows[0].split(",")
+    for r in trows[1:]:
+        v = dict(zip(theader, r.split(","), strict=True))
+        assert float(v["t_anchor_s"]) <= float(v["t_switch_s"])
+        if v["kind"] != "handover":
+            assert float(v["t_anchor_s"]) == float(v["t_switch_s"])
+        for what in ("acceleration_m_s2", "jerk_m_s3"):
+            assert float(v[f"excess_{what}"]) == pytest.approx(  # (the CSV rounds to a few digits)
+                max(0.0, float(v[f"peak_{what}"]) - float(v[f"auto_peak_{what}"])), rel=2e-3, abs=2e-3)
+        assert float(v["velocity_step_m_s"]) >= 0.0
     data = json.loads((out / "experiment.json").read_text())
     assert set(data["table1"]) == {"O1 M4", "O1 M6"} and data["reference_total_jerk_m2_s5"] is None
     report = (out / "report.md").read_text()
