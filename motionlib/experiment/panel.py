@@ -29,7 +29,7 @@ from ..errors import InputError
 from ..runtime.operators import OPERATOR_PRESETS, OperatorParams
 
 #: The interpolated parameters (the others are the presets' common values).
-_INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_tau_s",
+_INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_move_s",
                  "update_period_s", "takeover_distance_m")
 
 

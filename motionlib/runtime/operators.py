@@ -33,15 +33,19 @@ reaction delay, and every ``update_period_s`` chooses the tip velocity
 through the controller's joystick mapping. In joint operation it moves at most ``max_joints``
 joints at once (the subset whose joint rates best give ``v``, least squares, leaving out joints
 that would push further into a stop within 3 % of their range; cf. 003 Fig. 3.4: experienced
-operators use more joints simultaneously). The hand is not perfect: the stick
-follows the choice with a first-order lag ``stick_tau_s`` and carries Ornstein-Uhlenbeck noise
-of standard deviation ``noise`` (fraction of full deflection) and correlation time
-``noise_tau_s`` while the hand is on the stick. It stops when, as far as it can see, the tip
-is within ``precision_m`` of its estimate and moving slower than ``settle_speed_m_s``, and is
-then done. Given via points (e.g. the planned route's waypoints, so
-that a manual operator goes above an obstacle as the experiment requires, 000 section 3.3),
-it aims at each in turn until the tip is within ``via_radius_m`` of it or the target is
-nearer than it.
+operators use more joints simultaneously). The hand moves the stick to each new choice along
+a minimum-jerk path (Flash & Hogan 1985, *The coordination of arm movements: an
+experimentally confirmed mathematical model*, J. Neuroscience 5(7): hand movements minimise
+the integrated squared jerk, a quintic in time) of duration ``stick_move_s``, starting from
+the stick's current position, velocity and acceleration (:class:`MinimumJerkStick`), so the
+stick, and the velocity it commands, start and change without steps. The hand is not
+perfect: the stick carries Ornstein-Uhlenbeck noise of standard deviation ``noise``
+(fraction of full deflection) and correlation time ``noise_tau_s`` while the hand is on
+the stick. It stops when, as far as it can see, the tip is within ``precision_m`` of its
+estimate and moving slower than ``settle_speed_m_s``, and is then done. Given via points
+(e.g. the planned route's waypoints, so that a manual operator goes above an obstacle as the
+experiment requires, 000 section 3.3), it aims at each in turn until the tip is within
+``via_radius_m`` of it or the target is nearer than it.
 
 While an automated motion runs (traded and shared modes) the operator keeps the hands off
 until the tip is within ``takeover_distance_m`` of the target or of the motion's end point
@@ -59,7 +63,8 @@ max_speed_m_s             0.35      0.7       novices stay slow
 precision_m               0.05      0.02      target estimate error (per axis)
 noise                     0.05      0.02      unsteady hand vs practised hand
 noise_tau_s               0.3       0.3
-stick_tau_s               0.08      0.15      novices jerk the stick, experts ease it
+stick_move_s              0.25      0.45      novices jerk the stick, experts ease it
+                                                (3x the earlier lag's 0.08 / 0.15 s: same settling)
 update_period_s           0.10      0.05      corrections per second
 max_joints                1         3         003 Fig. 3.4 (simultaneous joint use)
 takeover_distance_m       0.3       1.0       experts take over early
@@ -262,7 +267,7 @@ class OperatorParams:
     precision_m: float = param(0.05, gt=0.0)
     noise: float = param(0.05, ge=0.0)
     noise_tau_s: float = param(0.3, gt=0.0)
-    stick_tau_s: float = param(0.08, gt=0.0)
+    stick_move_s: float = param(0.25, gt=0.0)
     update_period_s: float = param(0.10, gt=0.0)
     max_joints: int = 1
     takeover_distance_m: float = param(0.3, ge=0.0)
@@ -283,12 +288,71 @@ OPERATOR_PRESETS: dict[str, OperatorParams] = {
         precision_m=0.02,
         noise=0.02,
         noise_tau_s=0.3,
-        stick_tau_s=0.15,
+        stick_move_s=0.45,
         update_period_s=0.05,
         max_joints=3,
         takeover_distance_m=1.0,
     ),
 }
+
+
+class MinimumJerkStick:
+    """Stick axes moved along minimum-jerk paths (Flash & Hogan 1985), re-planned when the target changes.
+
+    Each axis moves from its position ``s0``, velocity ``v0`` and acceleration ``a0`` at the
+    time of the new target ``s1`` to rest at ``s1`` in ``T`` seconds along the quintic
+    ``s(tau) = sum_k c_k tau^k``, ``tau = (t - t0) / T`` in [0, 1], with ``c0 = s0``,
+    ``c1 = v0 T``, ``c2 = a0 T^2 / 2``, ``c3 = 10 D - 6 v0 T - 1.5 a0 T^2``,
+    ``c4 = -15 D + 8 v0 T + 1.5 a0 T^2``, ``c5 = 6 D - 3 v0 T - 0.5 a0 T^2`` (``D = s1 - s0``):
+    the path of least integrated squared jerk with these end conditions (from rest it is
+    ``s0 + D (10 tau^3 - 15 tau^4 + 6 tau^5)``). Position, velocity and acceleration are
+    continuous at every re-plan.
+
+    Parameters
+    ----------
+    move_s : float
+        Duration ``T`` (s) of a movement.
+    """
+
+    def __init__(self, move_s: float):
+        self.move_s = float(move_s)
+        self._t0 = 0.0
+        self._c = [[0.0] * 6 for _ in range(4)]
+        self._target = _ZERO4
+
+    def state(self, t: float) -> tuple[list[float], list[float], list[float]]:
+        """Positions, velocities (1/s) and accelerations (1/s^2) of the 4 axes at time ``t`` (s)."""
+        T = self.move_s
+        tau = (t - self._t0) / T
+        pos, vel, acc = [], [], []
+        for c, end in zip(self._c, self._target, strict=True):
+            if tau >= 1.0:  # at rest at the target
+                pos.append(end)
+                vel.append(0.0)
+                acc.append(0.0)
+                continue
+            x = tau if tau > 0.0 else 0.0
+            pos.append(c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5])))))
+            vel.append((c[1] + x * (2 * c[2] + x * (3 * c[3] + x * (4 * c[4] + x * 5 * c[5])))) / T)
+            acc.append((2 * c[2] + x * (6 * c[3] + x * (12 * c[4] + x * 20 * c[5]))) / (T * T))
+        return pos, vel, acc
+
+    def retarget(self, t: float, target: tuple[float, float, float, float]) -> None:
+        """Start a movement toward ``target`` (4,) at time ``t`` (s), from the axes' current state."""
+        if target == self._target:
+            return
+        pos, vel, acc = self.state(t)
+        T = self.move_s
+        for i in range(4):
+            d, vt, at2 = target[i] - pos[i], vel[i] * T, acc[i] * T * T
+            self._c[i] = [pos[i], vt, 0.5 * at2, 10.0 * d - 6.0 * vt - 1.5 * at2, -15.0 * d + 8.0 * vt + 1.5 * at2,
+                          6.0 * d - 3.0 * vt - 0.5 * at2]
+        self._t0 = t
+        self._target = target
+
+    def at_rest(self, t: float) -> bool:
+        """The movement has ended and every axis is at 0."""
+        return self._target == _ZERO4 and t >= self._t0 + self.move_s
 
 
 class SimulatedOperator:
@@ -375,7 +439,7 @@ class SimulatedOperator:
         self._seen: deque[tuple[float, Vec3, Vec3]] = deque()
         self._next_update = -math.inf
         self._choice = _ZERO4
-        self._stick = [0.0, 0.0, 0.0, 0.0]
+        self._stick = MinimumJerkStick(prm.stick_move_s)
         self._noise = [0.0, 0.0, 0.0, 0.0]
         self._t_last: float | None = None
         self._dt_cached = math.nan
@@ -464,28 +528,22 @@ class SimulatedOperator:
             self._next_update = t + prm.update_period_s
         hands_on = self.phase == "act"
         target = self._choice if hands_on else _ZERO4
-        if dt != self._dt_cached:  # filter factors for this time step (constant in a control loop)
+        if dt != self._dt_cached:  # noise factors for this time step (constant in a control loop)
             decay = math.exp(-dt / prm.noise_tau_s) if dt > 0.0 else 1.0
             self._dt_cached = dt
-            self._factors = (
-                1.0 - math.exp(-dt / prm.stick_tau_s) if dt > 0.0 else 0.0,
-                decay,
-                prm.noise * math.sqrt(max(0.0, 1.0 - decay * decay)),
-            )
-        a, decay, spread = self._factors
+            self._factors = (0.0, decay, prm.noise * math.sqrt(max(0.0, 1.0 - decay * decay)))
+        _, decay, spread = self._factors
         stick, noise = self._stick, self._noise
-        if not hands_on and stick == _ZERO4_LIST and noise == _ZERO4_LIST:
+        stick.retarget(t, target)
+        if not hands_on and noise == _ZERO4_LIST and stick.at_rest(t):
             return OperatorInput(t, _ZERO4, abort)  # hands off and the stick at rest
+        pos = stick.state(t)[0]
         gauss = self._rng.gauss
         noisy = hands_on and prm.noise > 0.0
         axes = []
         for i in range(4):
-            s_i = stick[i] + (target[i] - stick[i]) * a
-            if abs(s_i) < 1e-12 and not hands_on:
-                s_i = 0.0
-            stick[i] = s_i
             noise[i] = noise[i] * decay + spread * gauss(0.0, 1.0) if noisy else 0.0
-            value = s_i + noise[i]
+            value = pos[i] + noise[i]
             axes.append(1.0 if value > 1.0 else (-1.0 if value < -1.0 else value))
         return OperatorInput(t, (axes[0], axes[1], axes[2], axes[3]), abort)
 

@@ -14,6 +14,7 @@ from motionlib.runtime.controller import SharedController
 from motionlib.runtime.loop import LoopOptions, run_closed_loop
 from motionlib.runtime.operators import (
     OPERATOR_PRESETS,
+    MinimumJerkStick,
     Observation,
     PassiveOperator,
     ScriptedStick,
@@ -171,3 +172,55 @@ def test_operator_parameters_are_checked():
         OPERATOR_PRESETS["novice"].__class__(max_joints=5)
     with pytest.raises(InputError):
         OPERATOR_PRESETS["novice"].__class__(gain_per_s=0.0)
+
+
+def test_minimum_jerk_stick_against_the_closed_form_and_its_optimality():
+    """From rest: ``s0 + D (10 tau^3 - 15 tau^4 + 6 tau^5)`` (Flash & Hogan 1985); a re-plan mid-way keeps
+    position, velocity and acceleration continuous (finite differences across it); the path's
+    integrated squared jerk is below that of the same path plus any admissible perturbation
+    ``eps tau^3 (1 - tau)^3`` (zero position, velocity and acceleration at both ends)."""
+    T = 0.3
+    stick = MinimumJerkStick(T)
+    stick.retarget(1.0, (0.8, -0.5, 0.0, 0.2))
+    for tau in np.linspace(0.0, 1.0, 11):
+        pos = stick.state(1.0 + tau * T)[0]
+        shape = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+        np.testing.assert_allclose(pos, np.array([0.8, -0.5, 0.0, 0.2]) * shape, atol=1e-12)
+    assert stick.state(2.0) == ([0.8, -0.5, 0.0, 0.2], [0.0] * 4, [0.0] * 4)
+    # re-plan mid-way: continuous state; the finite differences of the position agree with it
+    t1 = 1.0 + 0.4 * T
+    before = stick.state(t1)
+    stick.retarget(t1, (-0.3, 0.1, 0.6, 0.2))
+    after = stick.state(t1)
+    np.testing.assert_allclose(after, before, atol=1e-12)
+    h = 1e-5
+    p_m, p_0, p_p = (np.array(stick.state(t1 + k * h)[0]) for k in (0, 1, 2))
+    np.testing.assert_allclose((p_p - p_m) / (2 * h), stick.state(t1 + h)[1], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose((p_p - 2 * p_0 + p_m) / h**2, stick.state(t1 + h)[2], rtol=1e-3, atol=1e-3)
+    assert stick.state(t1 + T)[0] == pytest.approx([-0.3, 0.1, 0.6, 0.2], abs=1e-12)
+    # optimality: integrated squared jerk of the quintic vs perturbed paths with the same end conditions
+    tau = np.linspace(0.0, 1.0, 20_001)
+
+    def sq_jerk(path: np.ndarray) -> float:
+        jerk = np.gradient(np.gradient(np.gradient(path, tau), tau), tau)
+        return float(np.trapezoid(jerk[50:-50] ** 2, tau[50:-50]))
+
+    quintic = 10 * tau**3 - 15 * tau**4 + 6 * tau**5
+    bump = tau**3 * (1 - tau) ** 3
+    base = sq_jerk(quintic)
+    for eps in (-2.0, -0.5, 0.5, 2.0):
+        assert sq_jerk(quintic + eps * bump) > base
+
+
+def test_simulated_stick_starts_without_a_step(lab):
+    """The simulated hand's stick leaves rest with zero velocity and acceleration (no step at onset)."""
+    ctl = SharedController(lab, "M4")
+    sim = SimulatedCrane(lab, Q_MID)
+    goal = np.array(sim.tip) + np.array([0.5, 0.3, 0.2])
+    op = SimulatedOperator.preset("novice", goal, "M4", ctl.joystick, lab, seed=1, noise=0.0)
+    axes = np.array([op.input(_obs(k * 0.005, p=sim.tip, q=sim.q)).axes for k in range(200)])
+    start = int(np.argmax(np.abs(axes).max(axis=1) > 0.0))
+    assert start * 0.005 == pytest.approx(op.params.reaction_time_s, abs=0.006)
+    first = np.abs(axes[start]).max()
+    peak_step = np.abs(np.diff(axes, axis=0)).max()
+    assert first < 1e-3 and peak_step < 0.05  # a lagged step would jump by ~0.005 / 0.08 of its size at once
