@@ -30,7 +30,7 @@ from ..runtime.operators import OPERATOR_PRESETS, OperatorParams
 
 #: The interpolated parameters (the others are the presets' common values).
 _INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_move_s",
-                 "update_period_s", "takeover_distance_m")
+                 "update_period_s", "takeover_distance_m", "traded_wait_fraction")
 
 
 @dataclass(frozen=True)

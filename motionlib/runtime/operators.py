@@ -50,7 +50,10 @@ experiment requires, 000 section 3.3), it aims at each in turn until the tip is 
 While an automated motion runs (traded and shared modes) the operator keeps the hands off
 until the tip is within ``takeover_distance_m`` of the target or of the motion's end point
 (``Observation.motion_end``: the automated task is nearly completed, 000 section 3.3), or the
-motion has ended; then it acts (shared modes) or presses abort and acts (traded modes).
+motion has ended; then it acts (shared modes) or presses abort and acts (traded modes). In
+traded modes 000 section 3.3 lets the operator either abort or wait for the task to end:
+with probability ``traded_wait_fraction`` (one seeded draw per operator, i.e. per motion in
+the experiment) it waits for the arrival instead of aborting.
 
 Presets (``OPERATOR_PRESETS``) -- set once from general reasoning, not fitted to 000's results:
 
@@ -68,6 +71,8 @@ stick_move_s              0.25      0.45      novices jerk the stick, experts ea
 update_period_s           0.10      0.05      corrections per second
 max_joints                1         3         003 Fig. 3.4 (simultaneous joint use)
 takeover_distance_m       0.3       1.0       experts take over early
+traded_wait_fraction      0.5       0.25      assumption: 000 gives no frequency; experts,
+                                                distrusting automation near the target, abort more
 via_radius_m              0.25      0.25      how close a via point must be passed
 settle_speed_m_s          0.05      0.05      "the grapple is still" (seen speed)
 ========================  ========  ========  ==========================================
@@ -271,6 +276,7 @@ class OperatorParams:
     update_period_s: float = param(0.10, gt=0.0)
     max_joints: int = 1
     takeover_distance_m: float = param(0.3, ge=0.0)
+    traded_wait_fraction: float = param(0.5, ge=0.0, le=1.0)
     via_radius_m: float = param(0.25, gt=0.0)
     settle_speed_m_s: float = param(0.05, gt=0.0)
 
@@ -292,6 +298,7 @@ OPERATOR_PRESETS: dict[str, OperatorParams] = {
         update_period_s=0.05,
         max_joints=3,
         takeover_distance_m=1.0,
+        traded_wait_fraction=0.25,
     ),
 }
 
@@ -434,6 +441,7 @@ class SimulatedOperator:
         self._rng = random.Random(self._seed)
         err = [self._rng.gauss(0.0, prm.precision_m) for _ in range(3)]
         self.goal_estimate = self.goal + np.array(err)
+        self.waits_for_arrival = self.mode.authority == "traded" and self._rng.random() < prm.traded_wait_fraction
         self._via_left = [tuple(v) for v in self.via.tolist()]
         self.phase = "wait"
         self._seen: deque[tuple[float, Vec3, Vec3]] = deque()
@@ -517,8 +525,10 @@ class SimulatedOperator:
             near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m or (
                 auto and end is not None and math.dist(end, p_seen) <= prm.takeover_distance_m
             )
-            # in manual modes act once the reaction time has passed
-            if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (auto and near):
+            # in manual modes act once the reaction time has passed; a waiting traded operator lets the motion end
+            if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (
+                auto and near and not self.waits_for_arrival
+            ):
                 self.phase = "act"
                 if auto and self.mode.authority == "traded":
                     abort = True

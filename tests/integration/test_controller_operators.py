@@ -157,7 +157,7 @@ def test_simulated_operator_reaches_its_target_in_manual_cartesian_operation(lab
 def test_traded_operator_presses_abort_near_the_target(lab):
     ctl = SharedController(lab, "M5")
     goal = np.array([2.0, 0.5, 1.2])
-    op = SimulatedOperator.preset("expert", goal, "M5", ctl.joystick, lab, seed=0)
+    op = SimulatedOperator.preset("expert", goal, "M5", ctl.joystick, lab, seed=0, traded_wait_fraction=0.0)
     far = op.input(_obs(0.0, p=(3.5, -0.5, 1.5), active=True))
     assert not far.abort and tuple(far.axes) == (0.0, 0.0, 0.0, 0.0)
     for k in range(1, 80):  # the tip arrives near the goal; the operator sees it after the reaction time
@@ -165,6 +165,31 @@ def test_traded_operator_presses_abort_near_the_target(lab):
         if inp.abort:
             break
     assert inp.abort and op.abort_pressed_at == pytest.approx(op.params.reaction_time_s, abs=0.006)
+
+
+def test_traded_operator_sometimes_waits_for_the_arrival(lab):
+    """With ``traded_wait_fraction`` 1 the operator never aborts and acts once the motion has ended; over
+    seeds the share of waiting operators matches the fraction (binomial, 400 draws, 4 sigma)."""
+    ctl = SharedController(lab, "M5")
+    goal = np.array([2.0, 0.5, 1.2])
+    op = SimulatedOperator.preset("novice", goal, "M5", ctl.joystick, lab, seed=0, traded_wait_fraction=1.0, noise=0.0)
+    assert op.waits_for_arrival
+    for k in range(200):  # near the goal while the motion runs: hands off, no abort
+        inp = op.input(_obs(k * 0.005, p=tuple(goal + [0.2, 0.0, 0.0]), active=True))
+        assert not inp.abort and tuple(inp.axes) == (0.0, 0.0, 0.0, 0.0)
+    moved = False
+    for k in range(200, 400):  # the motion has arrived: the operator takes the stick
+        inp = op.input(_obs(k * 0.005, p=tuple(goal + [0.2, 0.0, 0.0]), active=False))
+        assert not inp.abort
+        moved |= bool(np.abs(inp.axes).max() > 0.0)
+    assert moved
+    share = np.mean([SimulatedOperator.preset("expert", goal, "M5", ctl.joystick, lab, seed=s).waits_for_arrival
+                     for s in range(400)])
+    p = OPERATOR_PRESETS["expert"].traded_wait_fraction
+    assert abs(share - p) < 4 * math.sqrt(p * (1 - p) / 400)
+    shared = SimulatedOperator.preset("novice", goal, "M6", SharedController(lab, "M6").joystick, lab, seed=0,
+                                      traded_wait_fraction=1.0)
+    assert not shared.waits_for_arrival  # only traded operators wait
 
 
 def test_operator_parameters_are_checked():
