@@ -1,7 +1,8 @@
 """Smoothness over parts of a series: total jerk per work cycle (000 eq. 6) and transition windows (000 Fig. 8).
 
 The tip position of a whole series is filtered and differentiated once
-(:func:`motionlib.runtime.metrics.filtered_derivatives`: zero-phase 4th-order Butterworth at 10 Hz,
+(:func:`motionlib.runtime.metrics.filtered_derivatives`: zero-phase 4th-order Butterworth; the
+experiment's series use 15.9 Hz, ``motionlib.experiment.series.NOISE_FILTER``,
 central differences), so a cycle boundary is not a filter edge. Over a window
 ``[t0, t1]`` (the samples with ``t0 <= t <= t1``, trapezoidal rule):
 

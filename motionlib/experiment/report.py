@@ -364,9 +364,9 @@ def _discussion(an: Analysis) -> list[str]:
                 f"`c_a` fell from 0.9 to 0.1 in a median {_f(blend)} s after the operator's first input")
         if math.isfinite(blend) and blend < 0.3:
             text += (": `c_a` falls as the operator's speed approaches `v_ref` (000 eq. 5) and the model operator "
-                     "reaches its chosen speed within a few stick time constants, so the blend is almost as abrupt "
-                     "as a traded abort, and the machine (valve lag, relief valves, the joints' oil spring; no command "
-                     "ramp in this experiment) shapes both alike")
+                     "reaches its chosen speed within one stick movement (0.25-0.45 s), so the blend is almost as "
+                     "abrupt as a traded abort, and the machine (valve lag, relief valves, the joints' oil spring; "
+                     "no command ramp in this experiment) shapes both alike")
         text += (". The second-order hydraulic joints and the grapple's pull ring after an abrupt change (000 "
                  "Fig. 8 a shows such oscillations), but a blend and an abort this fast excite them alike, and the "
                  "filtered jerk also contains the time-optimal library trajectory's own acceleration switching.")

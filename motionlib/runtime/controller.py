@@ -19,12 +19,13 @@ states and joystick samples. One step:
    (000 eq. 4, :mod:`motionlib.runtime.mixer`), with handover to manual in weak zones.
    **Swing damping** (``ControllerParams.swing_damping``, on by default): ``k_s r_h`` is
    added to the tip velocity in every mode (Cartesian: to ``p_s``; manual joint operation:
-   resolved with the nominal weights and added to the operator's joint rates), ``r_h`` the
+   resolved with the joint-limit weights and added to the operator's joint rates), ``r_h`` the
    measured horizontal offset of the grapple from the tip (``CraneState.swing``), bounded by
    ``swing_damping_max_m_s``. **Position gain**: a new motion's tracker gets its final
    convergence gain capped by :meth:`SharedController.position_gain_max` (the gain margin on
    the identified joint model loaded by the grapple). Without both, the swinging load on the
-   oil springs kept the tip from settling for 3-9x the planned duration (docs/runtime.md).
+   oil springs kept the tip from settling for 2.7x the planned duration or longer, some
+   motions never (docs/runtime.md).
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
    i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
    weights of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`, SVD-equivalent damping
