@@ -249,7 +249,8 @@ class SharedController:
 
             k_max = 2 zeta omega / (GM (1 + max_i rho_i))
 
-        (the largest ``rho`` over the configurations and joints). ``inf`` when the margin is 0 (no cap).
+        (the largest ``rho`` over the joints and about 50 of the configurations, evenly spaced, and the
+        last). ``inf`` when the margin is 0 (no cap).
         """
         prm = self.params
         if prm.position_gain_margin == 0.0:
