@@ -126,10 +126,13 @@ def plan_joint_path(
     is_valid: Callable[[np.ndarray], bool],
     options: JointPathOptions = JointPathOptions(),
     seed: int = 0,
+    all_valid: Callable[[np.ndarray], bool] | None = None,
 ) -> JointPathResult:
     """A valid joint polyline from ``start_q`` to ``goal_q`` (4,): the straight line if valid, else OMPL's.
 
-    ``is_valid(q)`` says whether a configuration (4,) may be visited (the start is assumed valid).
+    ``is_valid(q)`` says whether a configuration (4,) may be visited (the start is assumed valid);
+    ``all_valid(qs)``, when given, says it for all configurations of ``qs`` (n, 4) at once (the
+    same rule, batched) and checks the straight line.
     """
     scale = time_scales(crane)
     empty = np.zeros((0, 4))
@@ -137,7 +140,12 @@ def plan_joint_path(
         return JointPathResult(
             JointPathStatus.GOAL_INVALID, f"goal configuration {np.round(goal_q, 3)} is not valid", empty
         )
-    if segment_valid(start_q, goal_q, is_valid, options.resolution_s, scale):
+    line_valid = (
+        all_valid(subdivide(np.stack([start_q, goal_q]), options.resolution_s, scale))
+        if all_valid is not None
+        else segment_valid(start_q, goal_q, is_valid, options.resolution_s, scale)
+    )
+    if line_valid:
         return JointPathResult(JointPathStatus.OK, "", np.stack([start_q, goal_q]), "line")
     diag: dict[str, Any] = {}
     waypoints, status = solve_ompl(
