@@ -435,8 +435,8 @@ class CollisionChecker:
         """Whether each box (lower, upper corners (n, 3)) overlaps some obstacle's box (n,)."""
         if not self._obstacles:
             return np.zeros(lo.shape[0], dtype=bool)
-        overlap = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
-        return overlap.all(axis=2).any(axis=1)
+        overlap: np.ndarray = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
+        return np.any(np.all(overlap, axis=2), axis=1)
 
     def tips_in_collision(self, p_tip: Any, loaded: bool = False) -> np.ndarray:
         """:meth:`tip_in_collision` for many tip points (n, 3) (m) -> (n,) bool; a vectorised box test
