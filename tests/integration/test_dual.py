@@ -1,0 +1,98 @@
+"""Two lab cranes carry one log by one MRF command (001 section 3, issue 14 item 4).
+
+Crane B stands 2 cm from where its controller believes (along the log's axis). The cranes grasp the
+log at their believed grasp points, so the grips start 2 cm apart from the log's grasp points: with
+the grips in series the misfit pulls on the log with ``k / 2 * 0.02`` (closed form). With
+force-moment accommodation on both cranes the internal force falls under the scenario's bound
+before the motion and stays there while the log is lifted, carried and turned; with accommodation
+off, the same calibration error keeps it above the bound. The log follows the commanded rate in
+both cases.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from motionlib import DualOptions, DualScenario, DualStatus, execute_dual
+from motionlib.errors import ExecutionError, ModelFileError
+
+SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "dual-lab.yaml"
+
+
+@pytest.fixture(scope="module")
+def scenario() -> DualScenario:
+    return DualScenario.load(SCENARIO)
+
+
+@pytest.fixture(scope="module")
+def runs(scenario):
+    return {acc: execute_dual(scenario, DualOptions(accommodation=acc)) for acc in (True, False)}
+
+
+def test_the_log_follows_the_command_with_the_internal_force_bounded(scenario, runs):
+    on, off = runs[True], runs[False]
+    bound = scenario.force_bound_n
+    misfit = scenario.grip.stiffness_n_m / 2 * np.linalg.norm(scenario.cranes[1].error.xyz)
+    print(f"\ninternal force at the grasp {on.initial_squeeze_n:.0f} N (closed form -{misfit:.0f} N); after "
+          f"{scenario.bound_from_s:g} s: peak {on.peak_squeeze_n:.0f} N with accommodation, {off.peak_squeeze_n:.0f} N "
+          f"without (bound {bound:.0f} N); drift {on.max_tracking_error_m * 1000:.1f} / "
+          f"{off.max_tracking_error_m * 1000:.1f} mm, rate error {on.rate_error_frac * 100:.2f} / "
+          f"{off.rate_error_frac * 100:.2f} %")
+    # the calibration error's misfit, closed form (tension: B stands 2 cm farther out along the log)
+    assert on.initial_squeeze_n == pytest.approx(-misfit, rel=0.01)
+    # with accommodation: bounded, and the log goes where it is told
+    assert on.status is DualStatus.WITHIN_BOUNDS, on.reason
+    assert on.raise_for_status() is on
+    assert on.peak_squeeze_n < bound
+    assert on.rate_error_frac < 0.02
+    assert on.max_heading_error_rad < 0.02
+    assert on.max_tracking_error_m < scenario.tracking_tol_m
+    # the commanded motion happened: 0.4 m out, 0.32 m up, 0.2 rad turned
+    moved = on.mrf_p[-1] - on.mrf_p[0]
+    assert moved == pytest.approx([0.4, 0.0, 0.32], abs=0.02)
+    turned = math.atan2(on.log_axis[-1, 1], on.log_axis[-1, 0]) - math.atan2(on.log_axis[0, 1], on.log_axis[0, 0])
+    assert turned == pytest.approx(0.2, abs=0.01)
+    # the cranes carry the log's weight between them at the end
+    weight = on.diagnostics["log_mass_kg"] * 9.81
+    assert on.grip_forces[-1, :, 2].sum() == pytest.approx(weight, rel=0.01)
+    # without accommodation: the same calibration error exceeds the bound, while the log still moves
+    assert off.status is DualStatus.FORCE_EXCEEDED
+    assert off.peak_squeeze_n > bound
+    assert abs(off.squeeze_n[-1]) > bound
+    assert off.rate_error_frac < 0.02
+    with pytest.raises(ExecutionError, match="accommodation off"):
+        off.raise_for_status()
+
+
+def test_calibrated_cranes_need_no_accommodation_to_stay_bounded(scenario):
+    """Without the calibration error, the misfit is gone: the internal force comes from the two plants'
+    different responses only and stays under the bound without accommodation too."""
+    exact = replace(scenario, cranes=(scenario.cranes[0], replace(scenario.cranes[1], error=scenario.cranes[0].error)))
+    run = execute_dual(exact, DualOptions(accommodation=False))
+    print(f"\ncalibrated, accommodation off: peak internal force {run.peak_squeeze_n:.0f} N")
+    assert abs(run.initial_squeeze_n) < 1.0
+    assert run.peak_squeeze_n < scenario.force_bound_n
+    assert run.status is DualStatus.WITHIN_BOUNDS
+
+
+def test_scenario_files_are_read_strictly(tmp_path):
+    text = SCENARIO.read_text(encoding="utf-8")
+    bad = {
+        "unknown key": (text.replace("  mrf: [0.0, 0.0, 0.0]", "  mrf: [0.0, 0.0, 0.0]\n  colour: brown"),
+                        "log.colour: unknown key"),
+        "grasp off the log": (text.replace("grasps: [-0.8, 0.8]", "grasps: [-0.8, 1.8]"), "log.grasps[1]"),
+        "one crane": (text[: text.index("  - name: B")] + text[text.index("log:"):], "cranes: expected two"),
+        "huge calibration error": (text.replace("xyz: [0.0, 0.02, 0.0]", "xyz: [0.0, 2.0, 0.0]"),
+                                   "calibration_error.xyz[1]"),
+        "string number": (text.replace("stiffness: 500000.0", "stiffness: fast"), "grip.stiffness"),
+    }
+    for name, (content, message) in bad.items():
+        path = tmp_path / f"{name.replace(' ', '-')}.yaml"
+        path.write_text(content, encoding="utf-8")
+        with pytest.raises(ModelFileError, match=message.replace("[", r"\[").replace("]", r"\]")):
+            DualScenario.load(path)
