@@ -102,8 +102,8 @@ class DualResult:
         Force of each grip on the log (N, world).
     mrf_p, mrf_ref : ndarray, shape (N, 3)
         The MRF's position and its commanded position (m, world).
-    log_axis : ndarray, shape (N, 3)
-        The log's axis (unit, world).
+    log_centre, log_axis : ndarray, shape (N, 3)
+        The log's centre (m) and axis (unit), world.
     tips, grasps : ndarray, shape (N, 2, 3)
         Each crane's tip and grasp point (m, world, actual).
     q : ndarray, shape (N, 2, 4)
@@ -134,6 +134,7 @@ class DualResult:
     grip_forces: np.ndarray
     mrf_p: np.ndarray
     mrf_ref: np.ndarray
+    log_centre: np.ndarray
     log_axis: np.ndarray
     tips: np.ndarray
     grasps: np.ndarray
@@ -270,6 +271,7 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
     rec_p = np.empty((n_steps + 1, 3))
     rec_ref = np.empty((n_steps + 1, 3))
     rec_axis = np.empty((n_steps + 1, 3))
+    rec_centre = np.empty((n_steps + 1, 3))
     rec_tip = np.empty((n_steps + 1, 2, 3))
     rec_grasp = np.empty((n_steps + 1, 2, 3))
     rec_q = np.empty((n_steps + 1, 2, 4))
@@ -282,6 +284,7 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
         rec_p[k] = log.point(mrf_off)
         rec_ref[k] = command.pose_at(t)[0]
         rec_axis[k] = log.rot[:, 0]
+        rec_centre[k] = log.p
         rec_grasp[k] = c_now
         for i in range(2):
             rec_tip[k, i] = actual[i].to_world(sims[i].tip)
@@ -343,8 +346,9 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
         "crane_names": [dc.name for dc in sc.cranes],
         "wall_time_s": time.perf_counter() - wall0,
     }
-    return DualResult(status, reason, opts.accommodation, rec_t, rec_sq, rec_f, rec_p, rec_ref, rec_axis, rec_tip,
-                      rec_grasp, rec_q, float(rec_sq[0]), peak_sq, max_track, head_err, rate_err, diagnostics, sc)
+    return DualResult(status, reason, opts.accommodation, rec_t, rec_sq, rec_f, rec_p, rec_ref, rec_centre, rec_axis,
+                      rec_tip, rec_grasp, rec_q, float(rec_sq[0]), peak_sq, max_track, head_err, rate_err,
+                      diagnostics, sc)
 
 
 def _rate_error(command: TwistCommand, t: np.ndarray, p: np.ndarray, t_from: float) -> float:
