@@ -96,3 +96,16 @@ def test_scenario_files_are_read_strictly(tmp_path):
         path.write_text(content, encoding="utf-8")
         with pytest.raises(ModelFileError, match=message.replace("[", r"\[").replace("]", r"\]")):
             DualScenario.load(path)
+
+
+def test_example_script_shows_both_runs(tmp_path, capsys):
+    """docs/examples/dual_crane.py: both runs, their figures and the view."""
+    import runpy
+
+    module = runpy.run_path(str(SCENARIO.parents[1] / "docs" / "examples" / "dual_crane.py"), run_name="example")
+    peaks = module["main"]([str(SCENARIO), "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert "with accommodation" in out and "without accommodation" in out
+    assert peaks[False] > DualScenario.load(SCENARIO).force_bound_n > peaks[True]
+    assert (tmp_path / "dual-crane.html").stat().st_size > 100_000
+    assert len(list(tmp_path.glob("*/*.png"))) == 4
