@@ -20,6 +20,8 @@ import pytest
 
 from motionlib import DualOptions, DualScenario, DualStatus, execute_dual
 from motionlib.errors import ExecutionError, ModelFileError
+from motionlib.runtime.payload import TwistSegment
+from motionlib.runtime.plant import SimParams
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "dual-lab.yaml"
 
@@ -78,6 +80,25 @@ def test_calibrated_cranes_need_no_accommodation_to_stay_bounded(scenario):
     assert abs(run.initial_squeeze_n) < 1.0
     assert run.peak_squeeze_n < scenario.force_bound_n
     assert run.status is DualStatus.WITHIN_BOUNDS
+
+
+@pytest.mark.parametrize("k_p", [0.0, 0.5, 1.0])
+def test_accommodation_against_position_loops_settles_at_the_closed_form(scenario, k_p):
+    """Held still, each crane's position loop (001 section 2.3, through its own calibration) and its
+    accommodation balance, ``K_P e = K_F f``, with the misfit ``delta = e_A + e_B + f / k_s`` shared with the
+    grips in series (``k_s = k / 2``): ``f = K_P delta / (2 K_F + K_P / k_s)``; rate only (``K_P = 0``), the
+    accommodation absorbs the whole misfit. The valves' dead band is off here: it stops the accommodation
+    early (docs/frames-and-sources.md)."""
+    held = replace(scenario, position_gain=k_p, command=(TwistSegment(6.0),), bound_from_s=5.0)
+    sim = SimParams(deadband_frac=0.0)
+    run = execute_dual(held, DualOptions(sim=sim, tail_s=0.0))
+    delta = float(np.linalg.norm(scenario.cranes[1].error.xyz))
+    k_s, k_f = scenario.grip.stiffness_n_m / 2, scenario.accommodation_gain
+    expected = k_p * delta / (2 * k_f + k_p / k_s)
+    print(f"\nK_P {k_p}: internal force {run.squeeze_n[-1]:.1f} N, closed form -{expected:.1f} N")
+    assert run.squeeze_n[-1] == pytest.approx(-expected, rel=0.01, abs=5.0)
+    stiff = execute_dual(held, DualOptions(accommodation=False, sim=sim, tail_s=0.0))
+    assert stiff.squeeze_n[-1] == pytest.approx(-k_s * delta, rel=0.01)
 
 
 def test_scenario_files_are_read_strictly(tmp_path):
