@@ -32,7 +32,7 @@ from .viewer import (
     sample_configurations,
 )
 
-LOG_COLOUR = "#a0522d"
+LOG_COLOUR = "#6b4226"
 
 
 def dual_figure(run: DualResult, options: ViewOptions | None = None) -> go.Figure:
@@ -56,7 +56,7 @@ def dual_figure(run: DualResult, options: ViewOptions | None = None) -> go.Figur
         return meshes
 
     pts = np.concatenate([np.array([b.xyz for b in bases]), run.log_centre])
-    lo, hi = pts.min(axis=0) - 5.0, pts.max(axis=0) + 5.0
+    lo, hi = pts.min(axis=0) - 1.5, pts.max(axis=0) + 1.5
     ground = box_mesh(np.array([lo[0], lo[1], -0.01]), np.array([hi[0], hi[1], 0.0]))
     traces: list[go.Mesh3d | go.Scatter3d] = [mesh_trace(*ground, GROUND_COLOUR, "ground")]
     for i, d in enumerate(drawings):
@@ -76,7 +76,8 @@ def dual_figure(run: DualResult, options: ViewOptions | None = None) -> go.Figur
         title={"text": _title(run, 0), "x": 0.02, "font": {"size": 15}},
         margin={"l": 0, "r": 0, "t": 40, "b": 0},
         scene={"aspectmode": "data", "xaxis": {"title": {"text": "x (m)"}}, "yaxis": {"title": {"text": "y (m)"}},
-               "zaxis": {"title": {"text": "z (m)"}}},
+               "zaxis": {"title": {"text": "z (m)"}},
+               "camera": {"eye": {"x": 0.9, "y": -1.3, "z": 0.8}}},
     )
     times = frame_times(float(run.t[-1]), options)
     q_a = sample_configurations(run.t, run.q[:, 0], times)

@@ -130,3 +130,23 @@ def test_example_script_shows_both_runs(tmp_path, capsys):
     assert peaks[False] > DualScenario.load(SCENARIO).force_bound_n > peaks[True]
     assert (tmp_path / "dual-crane.html").stat().st_size > 100_000
     assert len(list(tmp_path.glob("*/*.png"))) == 4
+
+
+def test_view_draws_both_cranes_and_the_log_where_the_run_had_them(runs):
+    """The 3D view's last frame: the log's capsule about the simulated log centre, crane B's grapple at its
+    actual tip (the base pose with its calibration error), not where its controller believed it."""
+    from motionlib.viz.dual_view import dual_figure
+
+    run = runs[True]
+    fig = dual_figure(run)
+    names = [t.name for t in fig.data]
+    last = fig.frames[-1]
+    moving = dict(zip([names[i] for i in last.traces], last.data, strict=True))
+    log = np.column_stack([moving["log"].x, moving["log"].y, moving["log"].z])
+    assert log.mean(axis=0) == pytest.approx(run.log_centre[-1], abs=1e-3)
+    grapple = np.column_stack([moving["grapple B"].x, moving["grapple B"].y, moving["grapple B"].z])
+    top = grapple[grapple[:, 2] > grapple[:, 2].max() - 0.2].mean(axis=0)
+    assert np.linalg.norm(top[:2] - run.tips[-1, 1, :2]) < 0.005
+    crane_b = run.scenario.cranes[1]
+    believed = crane_b.base.to_world(crane_b.crane.fk(run.q[-1, 1]))
+    assert np.linalg.norm(top[:2] - believed[:2]) > 0.015  # the 2 cm calibration error shows
