@@ -205,6 +205,9 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
     ------
     InputError
         Not a scenario.
+    ExecutionError
+        The log's simulation diverged (a guard: :func:`~motionlib.runtime.payload.check_stable` keeps the
+        grips within the step's stability).
     UnreachableError
         A crane cannot reach its grasp point at the start.
     """
@@ -312,6 +315,9 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
             peak = max(peak, abs(squeeze_force(log.forces, log.grasp_points())))
         sub_peak[k] = peak
         record(k, k * dt)
+
+    if not (np.isfinite(rec_sq).all() and np.isfinite(rec_p).all()):
+        raise ExecutionError(f"{sc.name}: the simulation of the log diverged (non-finite forces or positions)")
 
     # ---- measures after bound_from_s
     kb = min(int(math.ceil(sc.bound_from_s / dt - 1e-9)), n_steps)

@@ -16,10 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..checks import COORDINATE_M, Plausible
-from ..errors import InputError
+from ..errors import InputError, ModelFileError
 from ..model.kinematics import Crane
 from ..schema import Section, load_yaml
-from .payload import GripParams, LogParams, TwistSegment, Vec3
+from .payload import GripParams, LogParams, TwistSegment, Vec3, check_stable
 from .payload_source import BasePose
 
 _ANGLE = Plausible(-2 * math.pi, 2 * math.pi, -1e3, 1e3, "rad")
@@ -119,6 +119,7 @@ class DualScenario:
             raise InputError("accommodation_gain and position_gain: expected numbers >= 0")
         if not self.force_bound_n > 0.0 or not self.bound_from_s >= 0.0 or not self.tracking_tol_m > 0.0:
             raise InputError("force_bound_n and tracking_tol_m: expected > 0; bound_from_s: expected >= 0")
+        check_stable(self.log, self.grip)
 
     @property
     def duration_s(self) -> float:
@@ -127,8 +128,23 @@ class DualScenario:
 
     @classmethod
     def load(cls, path: str | Path) -> DualScenario:
-        """Read a scenario file (module docstring); crane files are named (``lab``) or paths relative to it."""
+        """Read a scenario file (module docstring); crane files are named (``lab``) or paths relative to it.
+
+        Raises
+        ------
+        ModelFileError
+            The file is missing, unreadable or malformed; the message names the file and the key.
+        """
         path = Path(path)
+        try:
+            return cls._read(path)
+        except InputError as exc:  # a check of the parts (segment, log, scenario) without the file's name
+            if isinstance(exc, ModelFileError):
+                raise
+            raise ModelFileError(f"{path}: {exc}") from exc
+
+    @classmethod
+    def _read(cls, path: Path) -> DualScenario:
         top = Section(load_yaml(path), path)
         name = top.string("name")
         description = top.string("description", "")
@@ -138,8 +154,8 @@ class DualScenario:
         if cranes[0].name == cranes[1].name:
             top.fail("cranes", f"expected two different names, got {cranes[0].name!r} twice")
         pl = top.section("log")
-        log = LogParams(pl.number("length", gt=0.0, le=30.0), pl.number("diameter", gt=0.0, le=2.0),
-                        pl.number("density", 800.0, gt=0.0, le=2000.0))
+        log = LogParams(pl.number("length", ge=0.5, le=30.0), pl.number("diameter", ge=0.05, le=1.5),
+                        pl.number("density", 800.0, ge=300.0, le=1500.0))
         centre = pl.vector("centre", 3, plausible=COORDINATE_M)
         yaw = pl.number("yaw", 0.0, plausible=_ANGLE)
         grasps = pl.vector("grasps", 2)
@@ -149,7 +165,7 @@ class DualScenario:
         mrf = pl.vector("mrf", 3, [0.0, 0.0, 0.0], plausible=Plausible(-15.0, 15.0, -100.0, 100.0, "m"))
         pl.done()
         pg = top.section("grip", {})
-        grip = GripParams(pg.number("stiffness", 5.0e5, gt=0.0, le=1e8), pg.number("damping", 2600.0, ge=0.0, le=1e7))
+        grip = GripParams(pg.number("stiffness", 5.0e5, ge=1e3, le=1e8), pg.number("damping", 2600.0, ge=0.0, le=1e6))
         pg.done()
         k_f = top.number("accommodation_gain", 6e-6, ge=0.0, le=1e-2)
         k_p = top.number("position_gain", 0.0, ge=0.0, le=20.0)
@@ -181,7 +197,10 @@ def _read_crane(sec: Section, folder: Path) -> DualCrane:
     name = sec.string("name")
     spec = sec.string("crane")
     candidate = folder / spec
-    crane = Crane.load(candidate if candidate.suffix in (".yaml", ".yml") and candidate.is_file() else spec)
+    try:
+        crane = Crane.load(candidate if candidate.suffix in (".yaml", ".yml") and candidate.is_file() else spec)
+    except (ModelFileError, InputError) as exc:
+        sec.fail("crane", f"expected a shipped crane or a crane file: {exc}")
     base = _read_pose(sec.section("base"), COORDINATE_M, _ANGLE)
     error = _read_pose(sec.section("calibration_error", {}), _ERROR_M, _ERROR_RAD)
     tele = sec.number("telescope", 0.3)

@@ -165,9 +165,9 @@ class LogParams:
         log implies the same).
     """
 
-    length_m: float = param(3.0, gt=0.0, le=30.0)
-    diameter_m: float = param(0.2, gt=0.0, le=2.0)
-    density_kg_m3: float = param(800.0, gt=0.0, le=2000.0)
+    length_m: float = param(3.0, ge=0.5, le=30.0)
+    diameter_m: float = param(0.2, ge=0.05, le=1.5)
+    density_kg_m3: float = param(800.0, ge=300.0, le=1500.0)
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -205,12 +205,26 @@ class GripParams:
         Integration step of the log (s), the plant's 1 kHz substep. Numerical choice.
     """
 
-    stiffness_n_m: float = param(5.0e5, gt=0.0, le=1e8)
-    damping_n_s_m: float = param(2600.0, ge=0.0, le=1e7)
+    stiffness_n_m: float = param(5.0e5, ge=1e3, le=1e8)
+    damping_n_s_m: float = param(2600.0, ge=0.0, le=1e6)
     dt_s: float = param(0.001, gt=0.0, le=0.01)
 
     def __post_init__(self) -> None:
         check_params(self)
+
+
+def check_stable(log: LogParams, grip: GripParams) -> None:
+    """Raise :class:`InputError` when the grips are too stiff for :class:`RigidLog`'s step with this log.
+
+    Semi-implicit Euler is stable for ``omega h < 2`` and damped for ``c h / m < 1``; the stiffest mode is a
+    grip against at most a quarter of the log's mass (a grasp at an end of a uniform rod), ``sqrt(8 k / m)``,
+    kept under 1 per step.
+    """
+    m, h = log.mass_kg, grip.dt_s
+    if math.sqrt(8.0 * grip.stiffness_n_m / m) * h > 1.0 or 4.0 * grip.damping_n_s_m * h / m > 1.0:
+        raise InputError(f"grip: {grip.stiffness_n_m:g} N/m and {grip.damping_n_s_m:g} N s/m are too stiff for a "
+                         f"{m:.1f} kg log at a {h:g} s step (stable up to {m / (8.0 * h * h):.3g} N/m and "
+                         f"{m / (4.0 * h):.3g} N s/m)")
 
 
 class RigidLog:
@@ -239,6 +253,7 @@ class RigidLog:
         self.log, self.grip = log, grip
         self.mass = log.mass_kg
         self.inertia = log.inertia_body
+        check_stable(log, grip)
         self.grasps_p = np.array([[float(s), 0.0, 0.0] for s in grasps])
         if len(self.grasps_p) < 2:
             raise InputError("grasps: expected at least two grasp points")

@@ -150,3 +150,48 @@ def test_view_draws_both_cranes_and_the_log_where_the_run_had_them(runs):
     crane_b = run.scenario.cranes[1]
     believed = crane_b.base.to_world(crane_b.crane.fk(run.q[-1, 1]))
     assert np.linalg.norm(top[:2] - believed[:2]) > 0.015  # the 2 cm calibration error shows
+
+
+def _leaves(node, path=()):
+    if isinstance(node, dict):
+        for k, v in node.items():
+            yield from _leaves(v, (*path, k))
+    elif isinstance(node, list) and node and isinstance(node[0], dict | list):
+        for i, v in enumerate(node):
+            yield from _leaves(v, (*path, i))
+    else:
+        yield path
+
+
+def test_every_damaged_value_or_missing_key_is_a_clean_error_or_accepted(tmp_path):
+    """Brute force over the scenario file: each leaf replaced by a wrong value, or each key removed; loading
+    gives a package error naming the file, or a scenario (no other exception)."""
+    import copy
+
+    import yaml
+
+    from motionlib.errors import MotionlibError
+
+    good = yaml.safe_load(SCENARIO.read_text(encoding="utf-8"))
+    bad_values = [None, "x", True, -1.0, 0.0, 1e300, [], {}, [1.0], "lab.yaml", 1e-300]
+    outcomes = {"clean": 0, "accepted": 0}
+    for path in _leaves(good):
+        variants = [copy.deepcopy(good) for _ in range(len(bad_values) + 1)]
+        for variant, value in zip(variants, [*bad_values, "DELETE"], strict=True):
+            node = variant
+            for key in path[:-1]:
+                node = node[key]
+            if value == "DELETE":
+                del node[path[-1]]
+            else:
+                node[path[-1]] = value
+            file = tmp_path / "scenario.yaml"
+            file.write_text(yaml.safe_dump(variant), encoding="utf-8")
+            try:
+                DualScenario.load(file)
+                outcomes["accepted"] += 1
+            except MotionlibError as exc:
+                assert str(file) in str(exc) or "expected" in str(exc), exc
+                outcomes["clean"] += 1
+    print(f"\ndamaged scenarios: {outcomes}")
+    assert outcomes["clean"] > 3 * outcomes["accepted"] > 0

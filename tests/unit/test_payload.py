@@ -98,6 +98,11 @@ def test_twist_command_is_exact_and_stops_after_its_end():
         TwistCommand((), (0.0, 0.0, 0.0), np.eye(3))
 
 
+def test_grips_too_stiff_for_the_step_are_refused():
+    with pytest.raises(InputError, match="too stiff"):
+        RigidLog(LogParams(0.5, 0.05, 300.0), GripParams(1e8), (-0.2, 0.2), (0.0, 0.0, 1.0), np.eye(3))
+
+
 def test_log_at_rest_in_two_grips_carries_its_weight_by_the_lever_rule():
     """Statics: each grip holds its lever-rule share of m g, sagging ``share m g / k`` (closed forms)."""
     log, grip = LogParams(3.0, 0.2, 800.0), GripParams()
@@ -126,8 +131,8 @@ def test_a_misfit_along_the_axis_squeezes_with_the_grips_in_series():
 
 
 def test_free_log_keeps_its_momentum():
-    """No grips (zero stiffness and damping), no gravity effect on rotation: energy and spin are kept."""
-    body = RigidLog(LogParams(), GripParams(1e-9, 0.0), (-0.8, 0.8), (0.0, 0.0, 1.0), np.eye(3))
+    """Grips that follow the log exactly exert nothing (and gravity no moment): the spin is kept."""
+    body = RigidLog(LogParams(), GripParams(1e3, 0.0), (-0.8, 0.8), (0.0, 0.0, 1.0), np.eye(3))
     body.omega = np.array([0.0, 0.0, 0.5])
     far = body.grasp_points()
     for _ in range(1000):
