@@ -151,3 +151,18 @@ def test_internal_force_ignores_a_common_force_and_flips_with_the_order(values):
     f = squeeze_force(forces, points)
     assert squeeze_force(forces + common, points) == pytest.approx(f, abs=1e-6)
     assert squeeze_force(forces[::-1], points[::-1]) == pytest.approx(f, abs=1e-9)
+
+
+_vec = st.tuples(*[st.floats(-0.5, 0.5)] * 3)
+
+
+@given(_vec, _vec, st.tuples(*[st.floats(-2.0, 2.0)] * 3), st.floats(0.0, 6.3))
+def test_grasp_rate_matches_finite_differences_for_any_twist(v, w, g, yaw):
+    """Any constant twist and grasp offset: 001 eq. 1 equals the derivative of the exactly integrated pose."""
+    rot0 = np.array([[math.cos(yaw), -math.sin(yaw), 0.0], [math.sin(yaw), math.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+    command = TwistCommand((TwistSegment(2.0, v, w),), (1.0, -2.0, 1.5), rot0)
+    g = np.array(g)
+    h = 1e-4
+    fd = (_grasp_world(command, g, 1.0 + h) - _grasp_world(command, g, 1.0 - h)) / (2 * h)
+    _, rot = command.pose_at(1.0)
+    assert np.allclose(grasp_velocity(v, w, rot @ g), fd, atol=1e-8, rtol=0.0)
