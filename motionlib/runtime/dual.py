@@ -38,7 +38,7 @@ from ..errors import ExecutionError, InputError, UnreachableError
 from ..model.frames import PointFrame, mrf_position
 from ..model.kinematics import Crane
 from .accommodation import AccommodationSource
-from .control_types import ControllerParams, OperatorInput
+from .control_types import ControllerParams, Flag, OperatorInput
 from .controller import SharedController
 from .dual_scenario import DualScenario
 from .payload import RigidLog, TwistCommand, squeeze_force
@@ -46,6 +46,7 @@ from .payload_source import PayloadSource
 from .plant import SimParams, SimulatedCrane
 
 _STILL = (0.0, 0.0, 0.0, 0.0)
+_VELOCITY, _ACCELERATION = int(Flag.VELOCITY_LIMITED), int(Flag.ACCELERATION_LIMITED)
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,8 @@ class DualOptions:
         Force-moment accommodation on every crane (001 section 3: "enabling the FMA ... for all
         manipulators at all times"); off to see what the calibration error does without it.
     sim : SimParams
-        Each crane's plant (``load_mass_kg`` is set to 0, see the module docstring).
+        Each crane's plant (``load_mass_kg`` is set to 0, see the module docstring; crane ``i`` gets the
+        noise seed ``seed + i``).
     controller : ControllerParams
     tail_s : float
         Simulated time after the command ends (s).
@@ -240,7 +242,7 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
         except UnreachableError as exc:
             raise UnreachableError(f"crane {dc.name}: its grasp point {grasp_w.round(3).tolist()} "
                                    f"is out of reach: {exc}") from exc
-        sims.append(SimulatedCrane(dc.crane, q0, sim_params))
+        sims.append(SimulatedCrane(dc.crane, q0, replace(sim_params, seed=sim_params.seed + i)))  # own valve noise
         source = PayloadSource(command, np.array([sc.grasps[i], 0.0, 0.0]) - mrf_off, frame, dc.base,
                                sc.position_gain)
         ctrl = SharedController(dc.crane, "M4", opts.controller, joystick=source)
@@ -304,8 +306,8 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
                 acc.sense(rot_actual[i].T @ -log.forces[i])
             cmd = ctrls[i].step(state, OperatorInput(state.t, _STILL))
             flags = ctrls[i].status.flags
-            limited[i][0] += bool(flags & 16)
-            limited[i][1] += bool(flags & 32)
+            limited[i][0] += bool(flags & _VELOCITY)
+            limited[i][1] += bool(flags & _ACCELERATION)
             sims[i].advance(cmd.tolist(), dt)
         c_prev, c_now = c_now, grasp_points()
         vel = (c_now - c_prev) / dt

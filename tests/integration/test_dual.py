@@ -81,7 +81,8 @@ def test_a_base_heading_error_is_absorbed_too(scenario):
     on = execute_dual(turned, DualOptions())
     off = execute_dual(turned, DualOptions(accommodation=False))
     print(f"\nheading error 0.01 rad: internal force {on.initial_squeeze_n:.0f} N at the grasp, peak after "
-          f"{scenario.bound_from_s:g} s {on.peak_squeeze_n:.0f} N with accommodation, {off.peak_squeeze_n:.0f} N without")
+          f"{scenario.bound_from_s:g} s {on.peak_squeeze_n:.0f} N with accommodation, "
+          f"{off.peak_squeeze_n:.0f} N without")
     assert on.ok and on.peak_squeeze_n < scenario.force_bound_n < off.peak_squeeze_n
     assert on.rate_error_frac < 0.02
 
