@@ -29,7 +29,9 @@ def test_spline_passes_through_the_polyline_tips_in_short_steps(crane):
         assert np.min(np.linalg.norm(tips - crane.fk(q), axis=1)) < 1e-12
     steps = np.linalg.norm(np.diff(tips, axis=0), axis=1)
     assert steps.mean() <= step and steps.max() <= 1.25 * step
-    fine = np.concatenate([a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in zip(q_wp[:-1], q_wp[1:], strict=True)])
+    fine = np.concatenate(
+        [a + np.linspace(0, 1, 400)[:, None] * (b - a) for a, b in zip(q_wp[:-1], q_wp[1:], strict=True)]
+    )
     tip_path_length = np.linalg.norm(np.diff(crane.fk_batch(fine), axis=0), axis=1).sum()
     assert spline.length == pytest.approx(tip_path_length, rel=0.02)
     assert profile.control_points[0] == q_wp[0, 3]
