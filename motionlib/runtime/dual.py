@@ -62,13 +62,16 @@ class DualOptions:
         Each crane's plant (``load_mass_kg`` is set to 0, see the module docstring; crane ``i`` gets the
         noise seed ``seed + i``).
     controller : ControllerParams
+        Each crane's controller; default without the swing damping (``swing_damping=0``): the
+        grapples are closed on the log, which cannot swing under one crane, so the simulated
+        pendulum's offset is not a swing to damp.
     tail_s : float
         Simulated time after the command ends (s).
     """
 
     accommodation: bool = True
     sim: SimParams = field(default_factory=SimParams)
-    controller: ControllerParams = field(default_factory=ControllerParams)
+    controller: ControllerParams = field(default_factory=lambda: ControllerParams(swing_damping=0.0))
     tail_s: float = 0.5
 
     def __post_init__(self) -> None:
