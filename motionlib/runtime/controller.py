@@ -24,7 +24,7 @@ states and joystick samples. One step:
    ``swing_damping_max_m_s``. **Position gain**: a new motion's tracker gets its final
    convergence gain capped by :meth:`SharedController.position_gain_max` (the gain margin on
    the identified joint model loaded by the grapple). Without both, the swinging load on the
-   oil springs kept the tip from settling for 2.7x the planned duration or longer, some
+   oil springs kept the tip from settling for 2.6x the planned duration or longer, some
    motions never (docs/runtime.md).
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
    i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
