@@ -112,6 +112,7 @@ def run_closed_loop(
     append = log.append
     calm = 0
     settled = False
+    rotator = controller.rotator is not None and sim.crane.rotator is not None
     t0 = time.perf_counter()
     steps = 0
     for steps in range(1, n_max + 1):  # noqa: B007 (steps is reported)
@@ -125,7 +126,10 @@ def run_closed_loop(
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)
-        sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
+        if rotator:  # the grapple rotator's axis (:mod:`motionlib.runtime.rotator`)
+            sim.advance(status.qd_cmd, dt, controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp))
+        else:
+            sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
         if (
             vx * vx + vy * vy + vz * vz < settle_v2
             and not controller.automation_active
@@ -145,4 +149,6 @@ def run_closed_loop(
         "hard_stop_hits": sim.hard_stop_hits,
         "fcl_calls": controller.guard.fcl_calls if controller.guard is not None else 0,
     }
+    if rotator:
+        diag["rotator_rad"] = sim.rotator_q  # the grapple rotator's final angle
     return LoopResult(log, settled, float(cycle), wall, steps, diag)
