@@ -40,6 +40,9 @@ NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.ar
 # Rounding tolerances of ik/ik_batch: a point fk(q) with q on the workspace boundary (arm stretched
 # out, cos_elbow = 1) or on a joint limit must invert, though rounding puts it 1e-16 outside.
 IK_COS_TOL = 1e-12  # on cos_elbow: about 1e-12 m beyond reach
+#: Rotator angles whose distances from the reference differ by less than this (rad) are equally near
+#: (:meth:`Crane.rotator_for_yaw`): a goal's slew a fraction of a degree off a symmetric case must not decide.
+YAW_TIE_RAD = 1e-3
 IK_LIMIT_TOL = 1e-7  # rad or m beyond a joint limit (acos near 1 amplifies rounding to ~sqrt(eps)); clipped
 
 
@@ -181,8 +184,8 @@ class Crane:
 
         ``q5 = yaw - q1 + k pi`` (``k`` even unless ``symmetric``: a log held at its middle is the
         same turned by pi), the one within the rotator's limits nearest ``q5_ref``; of two equally
-        near, the one whose log yaw ``q1 + q5`` is nearest ``yaw_ref`` (rad) when given (the log
-        turns least in the world).
+        near (within :data:`YAW_TIE_RAD`), the one whose log yaw ``q1 + q5`` is nearest ``yaw_ref``
+        (rad) when given (the log turns least in the world).
 
         Raises
         ------
@@ -200,7 +203,7 @@ class Crane:
         if not inside:
             raise InputError(f"yaw {yaw:.4f} rad at slew {q1:.4f} rad: no rotator angle within [{lo}, {hi}] rad")
         tie = (lambda v: abs(q1 + v - yaw_ref)) if yaw_ref is not None else (lambda v: 0.0)
-        return float(min(inside, key=lambda v: (round(abs(v - q5_ref), 9), tie(v))))
+        return float(min(inside, key=lambda v: (round(abs(v - q5_ref) / YAW_TIE_RAD), tie(v))))
 
     def log_point(self, q: Any, offset: Any) -> np.ndarray:
         """A point rigidly attached to the hanging grapple: ``p_tip + Rz(psi) o`` (3,) (m, base frame).

@@ -25,6 +25,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import toppra.constraint as tc
@@ -45,7 +46,7 @@ def joint_labels(n: int) -> tuple[str, ...]:
     return FULL_JOINT_NAMES[:n]
 
 
-def _joint_vector(value: object, name: str) -> np.ndarray:
+def _joint_vector(value: Any, name: str) -> np.ndarray:
     """A (4,) or (5,) finite vector of per-joint values."""
     shape = np.shape(value)
     size = shape[0] if len(shape) == 1 and shape[0] in (N_JOINTS, N_JOINTS + 1) else N_JOINTS
@@ -391,7 +392,7 @@ def verify_samples(
         when every sample is within tolerance.
     """
     t = np.asarray(t, dtype=np.float64)
-    q = check_points(q, "q", dim=limits[0].dof if limits else np.shape(q)[-1])
+    q = check_points(q, "q", dim=limits[0].dof if limits else N_JOINTS)
     tol = check_scalar(tol, "tol", ge=0.0)
     if t.shape != (q.shape[0],):
         raise InputError(f"t: expected shape ({q.shape[0]},) to match q, got {t.shape}")

@@ -703,7 +703,8 @@ class Planner:
         o = self.options
         s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.arm_clearance_m)) + 1)
         p_check = spline(s_check)
-        usable, rejected = {}, {}
+        usable: dict[str, np.ndarray] = {}
+        rejected: dict[str, str] = {}
         for name, profile in profiles.items():
             q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, q1)
             q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, q1)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 from ..checks import check_params, param
 from .control_types import Authority
@@ -145,7 +146,7 @@ def run_closed_loop(
     wall = time.perf_counter() - t0
     log.events.extend(controller.events)
     cycle = log.t_end - (calm - 1) * dt if settled else log.t_end
-    diag = {
+    diag: dict[str, Any] = {
         "hard_stop_hits": sim.hard_stop_hits,
         "fcl_calls": controller.guard.fcl_calls if controller.guard is not None else 0,
     }

@@ -27,6 +27,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from scipy.interpolate import BPoly
+
 from ..checks import check_params, param
 from ..errors import InputError
 from ..model.kinematics import Crane
@@ -92,12 +94,18 @@ class RotatorChannel:
         self._two_a = 2.0 * prm.brake_decel_frac * r.acceleration_max
         self._dv = r.acceleration_max * dt_s if prm.command_ramp else math.inf
         self.plan: TelescopeProfile | None = None
+        self._ref: BPoly | None = None
+        self._slope: BPoly | None = None
         self.cmd = 0.0
 
     def start(self, trajectory: Trajectory) -> None:
         """Follow ``trajectory``'s rotator profile (none: the automation leaves the rotator alone)."""
         cp = trajectory.rotator_control_points
         self.plan = None if cp is None else TelescopeProfile(cp, float(trajectory.path_s[-1]))
+        self._ref = self._slope = None
+        if self.plan is not None:  # the Bézier polynomial and its derivative in theta, built once
+            self._ref = self.plan.polynomial()
+            self._slope = self._ref.derivative()
 
     def operator_rate(self, axis: float) -> float:
         """The operator's rate (rad/s) for a rotator axis value in [-1, 1] (clipped; non-finite: 0)."""
@@ -109,13 +117,14 @@ class RotatorChannel:
 
     def automation_rate(self, q5: float, s_p: float, path_speed_m_s: float) -> float:
         """The automation's rate (rad/s): feed-forward along the plan at ``s_p`` (m) plus the pull to it."""
-        if self.plan is None or not math.isfinite(s_p):
+        if self.plan is None or self._ref is None or self._slope is None or not math.isfinite(s_p):
             return 0.0
-        s = max(s_p + self.params.lead_m, 0.0)
-        if s >= self.plan.length_m:  # the reference is at the plan's end: no feed-forward
-            return self.params.gain_per_s * (float(self.plan(self.plan.length_m)) - q5)
-        ref = float(self.plan(s))
-        slope = float(self.plan.derivative(s))
+        length = self.plan.length_m
+        theta = max(s_p + self.params.lead_m, 0.0) / length
+        if theta >= 1.0:  # the reference is at the plan's end: no feed-forward
+            return self.params.gain_per_s * (float(self._ref(1.0)) - q5)
+        ref = float(self._ref(theta))
+        slope = float(self._slope(theta)) / length
         return slope * path_speed_m_s + self.params.gain_per_s * (ref - q5)
 
     def step(self, q5: float, qd5: float, axis: float, automation: bool, s_p: float, path_speed_m_s: float) -> float:
