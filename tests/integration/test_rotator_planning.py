@@ -2,8 +2,9 @@
 
 The lab log-loading scene (000 section 3.3) with a bunk of three pairs of stakes on both sides
 of the target (x = 2.4, 3.0, 3.6 m, y = +-0.6 m: closer than half the 1.5 m log, so only a log
-aligned with the bunk's axis fits between them), the lab crane with its grapple rotator (examples/lab-rotator.yaml). The logs at
-the piles lie along x (pile A) and along y (pile B); the grapple picks each up along its axis.
+aligned with the bunk's axis fits between them), the lab crane with its grapple rotator
+(examples/lab-rotator.yaml). The logs at the piles lie along x (pile A) and along y (pile B);
+the grapple picks each up along its axis.
 Independent references: the log's yaw from the samples, a closed-form distance between the
 horizontal log and the vertical stakes on a 10x finer interpolation of the 200 Hz samples, and
 the limits re-checked on the samples.
@@ -22,7 +23,7 @@ from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
 from motionlib.model.limits import limits_for, verify_samples
 from motionlib.model.scene import Scene
-from motionlib.planning.planner import PlanOptions, Planner, PlanStatus
+from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
 from motionlib.planning.rotator import BUNK_AXIS_YAW
 from motionlib.runtime.execute import prepare_run
 from motionlib.runtime.operators import Observation, PassiveOperator

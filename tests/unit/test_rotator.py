@@ -324,3 +324,20 @@ def test_plant_without_rotator_ignores_the_rotator_command():
     a.advance([0.2, 0.1, 0.0, 0.0], 0.2)
     b.advance([0.2, 0.1, 0.0, 0.0], 0.2, rotator_cmd=1.0)
     assert a.q == b.q and a.qd == b.qd and b.rotator_q == 0.0
+
+
+# ----------------------------------------------------------------------------- library spec
+def test_library_spec_reads_the_goal_log_yaw(tmp_path):
+    from motionlib.library.spec import LibrarySpec
+
+    data = {"name": "t", "scene": str(ROOT / "obstacles" / "log-loading.yaml"), "crane": str(ROTATOR_FILE),
+            "planner": {"goal_log_yaw": 0.0},
+            "motions": [{"name": "back", "loaded": True, "starts": ["pickup-a"],
+                         "targets": {"points": ["target-center"]}}]}
+    path = tmp_path / "spec.yaml"
+    path.write_text(yaml.safe_dump(data))
+    assert LibrarySpec.load(path).plan_options(loaded=True).goal_log_yaw == 0.0
+    data["planner"]["goal_log_yaw"] = "along"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ModelFileError, match="planner.goal_log_yaw"):
+        LibrarySpec.load(path)
