@@ -341,3 +341,18 @@ def test_library_spec_reads_the_goal_log_yaw(tmp_path):
     path.write_text(yaml.safe_dump(data))
     with pytest.raises(ModelFileError, match="planner.goal_log_yaw"):
         LibrarySpec.load(path)
+
+
+def test_viewer_draws_the_log_along_its_yaw(rc):
+    from motionlib.viz.viewer import CraneDrawing
+
+    drawing = CraneDrawing(rc, loaded=True)
+    m = rc.model
+    for psi in (0.0, 0.7, math.pi / 2):
+        q = np.array([1.2, 0.5, -1.4, 0.4, psi - 1.2])
+        v, _ = drawing.grapple(q)
+        rel = v[:, :2] - rc.fk(q[:4])[:2]
+        along = rel @ np.array([math.cos(psi), math.sin(psi)])
+        across = rel @ np.array([-math.sin(psi), math.cos(psi)])
+        assert along.max() - along.min() == pytest.approx(m.log_length, abs=1e-6)
+        assert across.max() - across.min() <= max(m.log_diameter, 2 * m.grapple_radius) + 1e-6
