@@ -356,3 +356,48 @@ def test_viewer_draws_the_log_along_its_yaw(rc):
         across = rel @ np.array([-math.sin(psi), math.cos(psi)])
         assert along.max() - along.min() == pytest.approx(m.log_length, abs=1e-6)
         assert across.max() - across.min() <= max(m.log_diameter, 2 * m.grapple_radius) + 1e-6
+
+
+# ----------------------------------------------------------------------------- runtime: the rotator axis
+def _run_rotator_stick(rc, axis: float, seconds: float, rotator0: float, stale_after: float | None = None):
+    """Closed loop of the controller and the plant with the operator's rotator axis held at ``axis``."""
+    from motionlib.runtime.control_types import OperatorInput
+    from motionlib.runtime.controller import SharedController
+
+    controller = SharedController(rc, "M4")
+    sim = SimulatedCrane(rc, [0.0, 0.5, -1.4, 0.4], rotator0=rotator0)
+    dt = controller.params.dt_s
+    q5, cmds = [], []
+    for _ in range(int(seconds / dt)):
+        state = sim.state()
+        fresh = stale_after is None or state.t < stale_after
+        inp = OperatorInput(state.t if fresh else 0.0, (0.0, 0.0, 0.0, 0.0), False, rotator=axis)
+        controller.step(state, inp)
+        cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
+        sim.advance(controller.status.qd_cmd, dt, cmd)
+        q5.append(sim.rotator_q)
+        cmds.append(cmd)
+    return sim, np.array(q5), np.array(cmds)
+
+
+def test_operator_rotator_axis_turns_the_grapple_and_brakes_before_the_limit(rc):
+    sim, q5, cmds = _run_rotator_stick(rc, 1.0, 8.0, rotator0=0.0)
+    r = rc.rotator
+    assert cmds.max() == pytest.approx(r.velocity_max)  # full axis: full rotator speed
+    assert np.all(np.abs(np.diff(cmds)) <= r.acceleration_max * 0.005 + 1e-12)  # the command ramp
+    assert sim.hard_stop_hits == 0 and q5.max() < r.upper  # braked before the end stop
+    assert q5[-1] > r.upper - 0.05 * (r.upper - r.lower)  # ... close to it (2 % margin)
+    _, q5_back, cmds_back = _run_rotator_stick(rc, -0.5, 1.0, rotator0=0.0)
+    assert cmds_back.min() == pytest.approx(0.5 * r.velocity_min) and q5_back[-1] < -0.3
+
+
+def test_stale_operator_input_stops_the_rotator(rc):
+    _, q5, cmds = _run_rotator_stick(rc, 1.0, 3.0, rotator0=0.0, stale_after=1.0)
+    assert cmds[-1] == 0.0 and abs(q5[-1] - q5[-50]) < 1e-3
+
+
+def test_the_rotator_channel_needs_a_rotator():
+    from motionlib.runtime.rotator import RotatorChannel
+
+    with pytest.raises(InputError, match="no rotator"):
+        RotatorChannel(Crane.load("lab"), 0.005)
