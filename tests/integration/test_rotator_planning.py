@@ -64,12 +64,25 @@ def _yaw_error_deg(yaw: float, target: float) -> float:
     return abs(math.degrees(math.remainder(yaw - target, math.pi)))
 
 
-def _log_stake_clearance(rc: Crane, q: np.ndarray) -> np.ndarray:
+def _stakes(scene: Scene) -> list[tuple[float, float, float, float, float]]:
+    """The scene's stakes (upright cylinders named ``stake*``): (x, y, z_bottom, z_top, radius)."""
+    out = []
+    for o in scene.obstacles:
+        if o.name.startswith("stake"):
+            assert o.shape == "cylinder" and not any(o.rpy) and o.radius is not None and o.length is not None
+            x, y, z = o.xyz
+            out.append((x, y, z - o.length / 2, z + o.length / 2, o.radius))
+    return out
+
+
+def _log_stake_clearance(rc: Crane, q: np.ndarray, scene: Scene) -> np.ndarray:
     """Closed-form clearance (m) of the carried log from the nearest stake, per configuration (n, 5).
 
-    The log is a horizontal capsule (segment at height z_log), a stake a vertical cylinder (axis
-    from the ground to its top): their distance separates into the horizontal distance of the
-    stake's axis from the log's segment and the vertical gap.
+    The log is a horizontal capsule (segment at height z_log); each stake is taken as the capsule
+    around its axis, which contains the upright cylinder, so the result is a lower bound of the
+    true clearance (exact beside the stake). The distance of a horizontal segment from a vertical
+    one separates into the horizontal distance of the stake's axis from the log's segment and the
+    vertical gap between the log's height and the axis's span.
     """
     m = rc.model
     tips = rc.fk_batch(q[:, :4])
@@ -78,13 +91,12 @@ def _log_stake_clearance(rc: Crane, q: np.ndarray) -> np.ndarray:
     psi = rc.log_yaw(q)
     u = np.stack([np.cos(psi), np.sin(psi)], axis=1)
     best = np.full(len(q), np.inf)
-    for x in STAKE_X:
-        for y in (STAKE_Y, -STAKE_Y):
-            rel = np.array([x, y]) - tips[:, :2]
-            t = np.clip(np.sum(rel * u, axis=1), -half, half)
-            d_h = np.linalg.norm(rel - t[:, None] * u, axis=1)
-            d_v = np.maximum(0.0, np.maximum(z_log - STAKE_TOP, -z_log))
-            best = np.minimum(best, np.hypot(d_h, d_v) - m.log_diameter / 2 - STAKE_RADIUS)
+    for x, y, z_lo, z_hi, radius in _stakes(scene):
+        rel = np.array([x, y]) - tips[:, :2]
+        t = np.clip(np.sum(rel * u, axis=1), -half, half)
+        d_h = np.linalg.norm(rel - t[:, None] * u, axis=1)
+        d_v = np.maximum(0.0, np.maximum(z_log - z_hi, z_lo - z_log))
+        best = np.minimum(best, np.hypot(d_h, d_v) - m.log_diameter / 2 - radius)
     return best
 
 
@@ -123,7 +135,7 @@ def test_carried_log_arrives_aligned_with_the_bunk_and_clear_of_the_stakes(rc, b
         assert start_error > 80.0  # the log had to be turned
     # never collides with a stake: closed form on a 10x finer interpolation, and fcl with the log's yaw
     fine = _fine(q)
-    clearance = _log_stake_clearance(rc, fine)
+    clearance = _log_stake_clearance(rc, fine, bunk_scene)
     print(f"{pile}: smallest log-stake clearance {clearance.min():.3f} m over {len(fine)} configurations")
     assert clearance.min() > 0.0
     assert not CollisionChecker(rc, bunk_scene).configurations_in_collision(fine, loaded=True).any()
@@ -141,9 +153,9 @@ def test_holding_the_rotator_would_bring_the_log_across_the_stakes(rc, bunk_scen
     goal_q = plans["pickup-a"].trajectory.full_samples()[0][-1].copy()
     goal_q[4] = start[4]  # the goal configuration with the start's rotator angle
     print(f"held rotator: {held.status.value}: {held.reason[:120]}; "
-          f"log-stake clearance at the goal {_log_stake_clearance(rc, goal_q[None])[0]:.3f} m")
+          f"log-stake clearance at the goal {_log_stake_clearance(rc, goal_q[None], bunk_scene)[0]:.3f} m")
     assert _yaw_error_deg(rc.log_yaw(goal_q), BUNK_AXIS_YAW) > 80.0
-    assert _log_stake_clearance(rc, goal_q[None])[0] < -0.05
+    assert _log_stake_clearance(rc, goal_q[None], bunk_scene)[0] < -0.05
     assert held.status is not PlanStatus.OK
 
 
@@ -169,3 +181,31 @@ def test_automation_turns_the_log_along_the_trajectory_in_the_closed_loop(rc, bu
           f"largest rotator deviation from the plan at s_p {max(lag):.3f} rad")
     assert _yaw_error_deg(yaw, BUNK_AXIS_YAW) < 2.0
     assert max(lag) < 0.35  # ahead by the lead (0.15 m of arc), behind by the lags
+
+
+def test_forwarder_log_from_a_pile_beside_the_strip_road_lies_along_the_bunk():
+    """The full-size case: the forwarder with a rotator (examples/forwarder-rotator.yaml) carries a
+    4 m log picked up along the pile (along x, the strip road) from the right pile to the bunk's drop
+    point between the stakes (forwarder-site scene); the held rotator would leave it 70 deg off."""
+    crane = Crane.load(ROOT / "examples" / "forwarder-rotator.yaml")
+    scene = Scene.load(ROOT / "obstacles" / "forwarder-site.yaml", crane=crane)
+    q = scene.start("pile-right")
+    start = np.append(q, crane.rotator_for_yaw(float(q[0]), 0.0))  # the grapple along the pile's logs
+    drop = np.array([4.8, 0.0, 3.6])  # centre of the bunk-drop region, between the stakes
+    res = Planner(crane, scene, PlanOptions(loaded=True, goal_log_yaw=BUNK_AXIS_YAW, seed=0)).plan(start, drop)
+    assert res.status is PlanStatus.OK, res.reason
+    q_all, qd, qdd = res.trajectory.full_samples()
+    end_error = _yaw_error_deg(float(crane.log_yaw(q_all[-1])), BUNK_AXIS_YAW)
+    fine = _fine(q_all)
+    clearance = _log_stake_clearance(crane, fine, scene)
+    turned = np.ptp(q_all[:, 4])
+    print(f"forwarder: end error {end_error:.4f} deg, rotator turned {math.degrees(turned):.1f} deg, "
+          f"duration {res.trajectory.duration_s:.2f} s, smallest log-stake clearance {clearance.min():.3f} m")
+    assert end_error < 2.0 and turned > 0.5
+    assert clearance.min() > 0.0
+    assert not CollisionChecker(crane, scene).configurations_in_collision(fine, loaded=True).any()
+    assert not verify_samples(res.trajectory.t, q_all, qd, qdd, limits_for(crane, with_rotator=True), tol=0.01)
+    # the same goal configuration with the rotator held at its start angle: the log is far off the bunk's axis
+    held = q_all[-1].copy()
+    held[4] = start[4]
+    assert _yaw_error_deg(float(crane.log_yaw(held)), BUNK_AXIS_YAW) > 45.0
