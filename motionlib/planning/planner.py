@@ -776,8 +776,9 @@ def plan(
     ----------
     crane : Crane
     scene : Scene
-    start : str or array_like, shape (4,)
-        A named start configuration of the scene, or a configuration.
+    start : str or array_like, shape (4,) or (5,)
+        A named start configuration of the scene, or a configuration (with the rotator q5 on a
+        crane that has one; a named start or a (4,) one has q5 = 0).
     goal : str or array_like, shape (3,)
         A named point of the scene, or a tip position (base frame, m).
     options : PlanOptions, optional

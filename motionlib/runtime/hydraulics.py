@@ -115,7 +115,7 @@ class HydraulicJoints:
         self._alpha = 0.0
 
     def substep(self, u: Sequence[float], f: Sequence[float], h: float) -> None:
-        """Advance every joint by ``h`` (s) with the valve command ``u`` (4,) and the load ``f`` (4,)."""
+        """Advance every joint by ``h`` (s) with the valve command ``u`` (n,) and the load ``f`` (n,)."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau)

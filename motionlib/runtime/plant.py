@@ -197,6 +197,8 @@ class SimulatedCrane:
         Initial joint velocities (default rest); the grapple starts hanging still relative to the tip.
     t0 : float
         Initial time (s).
+    rotator0 : float
+        Initial grapple rotator angle (rad, within its limits; cranes with a rotator, else ignored).
 
     Attributes
     ----------
