@@ -210,7 +210,7 @@ def test_toppra_times_a_rotator_turn_as_the_closed_form(rc, delta):
     res = time_scale(s, q, limits_for(rc, with_rotator=True), min_gridpoints=400).raise_for_status()
     r = rc.rotator
     expect = _turn_time(delta, min(r.velocity_max, -r.velocity_min), r.acceleration_max)
-    assert res.duration_s == pytest.approx(expect, rel=0.01)
+    assert res.duration_s == pytest.approx(expect, rel=1e-4)
     assert np.abs(res.qd[:, 4]).max() <= r.velocity_max * 1.01
 
 
@@ -224,7 +224,7 @@ def test_the_pump_limits_the_rotator_when_it_is_the_smaller_bound(raw):
     q[:, 4] = 2.5 * s
     res = time_scale(s, q, limits_for(crane, with_rotator=True), min_gridpoints=400).raise_for_status()
     v_pump = crane.model.pump_flow / 1.5e-3
-    assert res.duration_s == pytest.approx(_turn_time(2.5, v_pump, crane.rotator.acceleration_max), rel=0.01)
+    assert res.duration_s == pytest.approx(_turn_time(2.5, v_pump, crane.rotator.acceleration_max), rel=1e-4)
 
 
 # ----------------------------------------------------------------------------- collision with the log's yaw
