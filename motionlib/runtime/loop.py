@@ -128,7 +128,9 @@ def run_closed_loop(
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)
         if rotator:  # the grapple rotator's axis (:mod:`motionlib.runtime.rotator`)
-            sim.advance(status.qd_cmd, dt, controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp))
+            r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
+            log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
+            sim.advance(status.qd_cmd, dt, r_cmd)
         else:
             sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
         if (

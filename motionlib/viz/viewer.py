@@ -550,7 +550,8 @@ def runlog_figure(
     scene : Scene
     log : dict
         :func:`motionlib.runtime.runlog.read_runlog` output: ``t`` (N,) s, ``q`` (N, 4),
-        ``c_a`` (N,), ``authority`` (N,), ``events``, ``attrs``.
+        ``c_a`` (N,), ``authority`` (N,), ``events``, ``attrs``; ``rotator`` (N, 3) when the crane has
+        a grapple rotator (the log is drawn along its yaw).
     planned_path : ndarray, shape (M, 3), or None
         Tip path of the library trajectory the run executed (m).
     options : ViewOptions
@@ -590,7 +591,9 @@ def runlog_figure(
         )  # fmt: skip
 
     times = frame_times(float(t[-1] - t[0]), options) + t[0]
-    q_frames = sample_configurations(t, q, times)
+    rotator = log.get("rotator")
+    q_all = np.column_stack([q, rotator[:, 0]]) if rotator is not None and crane.rotator is not None else q
+    q_frames = sample_configurations(t, q_all, times)
     index = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
     first = len(fig.data)
     tips = crane.fk_batch(q_frames)

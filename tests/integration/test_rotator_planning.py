@@ -209,3 +209,36 @@ def test_forwarder_log_from_a_pile_beside_the_strip_road_lies_along_the_bunk():
     held = q_all[-1].copy()
     held[4] = start[4]
     assert _yaw_error_deg(float(crane.log_yaw(held)), BUNK_AXIS_YAW) > 45.0
+
+
+def test_execute_records_the_rotator_in_the_run_log(rc, bunk_scene, plans, tmp_path):
+    """``execute`` (what ``motionlib execute`` runs) turns the log with the plan and the run log records it."""
+    from motionlib.runtime.execute import ExecuteOptions, execute
+    from motionlib.runtime.runlog import read_runlog
+
+    traj = plans["pickup-b"].trajectory
+    run = execute(traj, rc, bunk_scene, mode="M5", options=ExecuteOptions(time_limit_s=traj.duration_s + 4.0))
+    path = run.write_log(tmp_path / "run.h5", rc)
+    log = read_runlog(path)
+    rot = log["rotator"]
+    assert rot.shape == (len(log["t"]), 3)
+    np.testing.assert_allclose(rot[0, 0], traj.rotator[0, 0], atol=1e-12)
+    assert run.loop.diagnostics["rotator_rad"] == pytest.approx(rot[-1, 0], abs=0.01)  # one step later
+    r = rc.rotator
+    assert np.all((rot[:, 2] >= r.velocity_min) & (rot[:, 2] <= r.velocity_max))  # commands within the limits
+    yaw_end = float(log["q"][-1, 0] + rot[-1, 0])
+    print(f"execute: final log yaw error {_yaw_error_deg(yaw_end, BUNK_AXIS_YAW):.3f} deg over {log['t'][-1]:.2f} s")
+    assert _yaw_error_deg(yaw_end, BUNK_AXIS_YAW) < 2.0
+    # the run-log view draws the log along its yaw: a frame's grapple mesh is the drawing with q5
+    from motionlib.viz.viewer import CraneDrawing, ViewOptions, frame_times, runlog_figure, sample_configurations
+
+    options = ViewOptions()
+    fig = runlog_figure(rc, bunk_scene, log, traj.path_tip, options)
+    t = log["t"]
+    times = frame_times(t[-1] - t[0], options) + t[0]
+    q_frames = sample_configurations(t, np.column_stack([log["q"], rot[:, 0]]), times)
+    k = int(np.argmax(np.abs(q_frames[:, 4])))  # the frame where the grapple is turned most
+    assert abs(q_frames[k, 4]) > 0.3
+    mesh = fig.frames[k].data[-1]  # the grapple's vertices in that animation frame (float32)
+    expect, _ = CraneDrawing(rc, loaded=True).grapple(q_frames[k])
+    np.testing.assert_allclose(np.column_stack([mesh.x, mesh.y, mesh.z]), expect, atol=1e-4)
