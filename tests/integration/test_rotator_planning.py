@@ -242,3 +242,19 @@ def test_execute_records_the_rotator_in_the_run_log(rc, bunk_scene, plans, tmp_p
     mesh = fig.frames[k].data[-1]  # the grapple's vertices in that animation frame (float32)
     expect, _ = CraneDrawing(rc, loaded=True).grapple(q_frames[k])
     np.testing.assert_allclose(np.column_stack([mesh.x, mesh.y, mesh.z]), expect, atol=1e-4)
+
+
+@pytest.mark.parametrize(("loaded", "start", "goal"), [(True, "pickup-a", "target-center"),
+                                                        (False, "target-center", "pickup-b")])
+def test_the_rotator_held_at_zero_plans_the_arm_as_the_crane_without_it(rc, loaded, start, goal):
+    """The rotator is an added joint: held (no yaw goal, q5 = 0) it changes nothing of the arm's motion,
+    to the bit (tip-space pipeline: no time-budgeted joint-space search, so the runs are deterministic)."""
+    scene = Scene.load(ROOT / "obstacles" / "log-loading.yaml")
+    options = PlanOptions(loaded=loaded, seed=3, joint_candidates=False)
+    plain = Planner(Crane.load("lab"), scene, options).plan(scene.start(start), scene.point(goal))
+    with_rotator = Planner(rc, scene, options).plan(scene.start(start), scene.point(goal))
+    assert plain.ok and with_rotator.ok
+    a, b = plain.trajectory, with_rotator.trajectory
+    assert a.rotator is None and b.rotator is not None and not b.rotator.any()
+    for name in ("t", "q", "qd", "qdd", "path_tip"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
