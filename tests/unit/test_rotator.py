@@ -401,3 +401,16 @@ def test_the_rotator_channel_needs_a_rotator():
 
     with pytest.raises(InputError, match="no rotator"):
         RotatorChannel(Crane.load("lab"), 0.005)
+
+
+def test_plant_arm_is_unchanged_by_a_resting_rotator(rc):
+    """The rotator at rest draws no oil: the arm moves exactly as on the crane without it."""
+    lab = Crane.load("lab")
+    cmds = np.random.default_rng(8).uniform(-0.4, 0.4, size=(60, 4))
+    a = SimulatedCrane(lab, [0.3, 0.5, -1.4, 0.4])
+    b = SimulatedCrane(rc, [0.3, 0.5, -1.4, 0.4], rotator0=1.0)
+    for cmd in cmds:
+        a.advance(cmd, 0.05)
+        b.advance(cmd, 0.05)
+    assert a.q == b.q and a.qd == b.qd and a.grapple == b.grapple and a.peak_pump_ratio == b.peak_pump_ratio
+    assert b.rotator_q == 1.0
