@@ -156,10 +156,11 @@ def main() -> None:
     rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed, args.compare_old)
     rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed, args.compare_old)
 
-    cols = ("path_s", "jointspace_s", "redundancy_s", "timing_s", "verification_s")
+    cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s")
     ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
     head = (
-        f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'joint':>6} {'redund':>6} {'timing':>6} {'verify':>6} "
+        f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'joint':>6} {'topt':>6} {'redund':>6} {'timing':>6} "
+        f"{'verify':>6} "
         f"{'total':>6} {'old':>6} {'T (s)':>6} {'/js':>6} {'/lb':>6} {'/old':>6} {'/const':>6} {'/lin':>6} "
         f"{'/slew':>6} source"
     )

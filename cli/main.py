@@ -39,6 +39,7 @@ COMMANDS: dict[str, str] = {
     "select": "select:select",
     "inspect": "inspect:inspect",
     "execute": "execute:execute",
+    "dual": "dual:dual",
     "experiment": "experiment:experiment",
 }
 #: Exit status of an unexpected exception (a bug): EX_SOFTWARE of sysexits.h.

@@ -10,6 +10,8 @@ Library.open(path).select(target_p, current_q, utility) -> SelectionResult
     Rank a library's trajectories for an operator's target (003 eqs. 5.3-5.7).
 execute(trajectory, crane, scene, mode=..., operator=..., target=...) -> RunResult
     Run a trajectory in the 200 Hz shared-control loop on the simulated crane (:mod:`motionlib.runtime`).
+execute_dual(DualScenario.load(path), options) -> DualResult
+    Two simulated cranes carry one log by one MRF command, with force-moment accommodation (001 section 3).
 log_loading_experiment(config, out_dir) -> ExperimentReport
     000's log-loading experiment in simulation, from library to report (:mod:`motionlib.experiment`).
 write_view(path, output) -> ViewResult
@@ -61,6 +63,7 @@ _EXPORTS: dict[str, str] = {
     "plan": "motionlib.planning.planner",
     "build_library": "motionlib.library.build",
     "execute": "motionlib.runtime.execute",
+    "execute_dual": "motionlib.runtime.dual",
     "log_loading_experiment": "motionlib.experiment.runner",
     "write_view": "motionlib.viz.viewer",
     "analyze_recording": "motionlib.analysis.work_analysis",
@@ -81,6 +84,10 @@ _EXPORTS: dict[str, str] = {
     "Mode": "motionlib.runtime.control_types",
     "RunResult": "motionlib.runtime.execute",
     "ExecuteOptions": "motionlib.runtime.execute",
+    "DualScenario": "motionlib.runtime.dual_scenario",
+    "DualOptions": "motionlib.runtime.dual",
+    "DualResult": "motionlib.runtime.dual",
+    "DualStatus": "motionlib.runtime.dual",
     "ExperimentConfig": "motionlib.experiment.runner",
     "ExperimentReport": "motionlib.experiment.runner",
     "ViewOptions": "motionlib.viz.viewer",
@@ -92,6 +99,7 @@ __all__ = [
     "plan",
     "build_library",
     "execute",
+    "execute_dual",
     "log_loading_experiment",
     "write_view",
     "analyze_recording",
@@ -111,6 +119,10 @@ __all__ = [
     "Mode",
     "RunResult",
     "ExecuteOptions",
+    "DualScenario",
+    "DualOptions",
+    "DualResult",
+    "DualStatus",
     "ExperimentConfig",
     "ExperimentReport",
     "ViewOptions",
@@ -139,6 +151,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .planning.planner import PlanOptions, PlanResult, PlanStatus, plan
     from .planning.trajectory import Trajectory, load_plan
     from .runtime.control_types import Mode
+    from .runtime.dual import DualOptions, DualResult, DualStatus, execute_dual
+    from .runtime.dual_scenario import DualScenario
     from .runtime.execute import ExecuteOptions, RunResult, execute
     from .viz.viewer import ViewOptions, write_view
 

@@ -404,43 +404,63 @@ class CollisionChecker:
         box overlaps an obstacle's box, or a hanging part's box overlaps the
         column's or the boom's, so fcl must decide.
         """
-        n = qs.shape[0]
         pivot, jib_pivot, jib_end, tip = (
             np.stack(np.broadcast_arrays(*p), axis=1)
             for p in self._arm_points(qs[:, 0], qs[:, 1], qs[:, 2], qs[:, 3], _NUMPY_OPS)
         )
-        if qs.shape[1] == 5:  # the log along its yaw q1 + q5
-            yaw = self.crane.log_yaw(qs)
-            ux, uy = np.cos(yaw), np.sin(yaw)
-        else:
-            ux, uy = self._heading_batch(tip)
         segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
-        hanging = []
-        for part in self._hanging[loaded]:
-            a, b = (np.stack(e, axis=1) for e in self._hang(part, tip[:, 0], tip[:, 1], tip[:, 2], ux, uy))
-            hanging.append((part, a, b))
-        boxes = {}
-        hit = np.zeros(n, dtype=bool)
-        for part, a, b in segments + hanging:
+        yaw = self.crane.log_yaw(qs) if qs.shape[1] == 5 else None  # the log along its yaw q1 + q5
+        hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded, yaw)
+        boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
+        boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
+        for lo, hi in hanging_boxes:
+            maybe |= np.all((lo <= boom_hi) & (hi >= boom_lo), axis=1)
+        for part, a, b in segments:
             lo = np.minimum(a, b) - part.radius
             hi = np.maximum(a, b) + part.radius
-            boxes[part.name] = (lo, hi)
             hit |= lo[:, 2] < self._ground_z
-        maybe = np.zeros(n, dtype=bool)
-        if self._obstacles:
-            for lo, hi in boxes.values():
-                overlap = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
-                maybe |= overlap.all(axis=2).any(axis=1)
+            maybe |= self._boxes_touch_obstacles(lo, hi)
+        return hit, maybe
+
+    def _hanging_screen(
+        self, tip: np.ndarray, loaded: bool, yaw: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
+        """Vectorised ground test (exact) and box screen of the hanging parts at tips (n, 3) against the
+        obstacles and the column; also returns the parts' boxes (lower, upper corners (n, 3)). The log
+        lies along ``yaw`` (n,) (rad) when given, else along the tips' headings."""
+        ux, uy = self._heading_batch(tip) if yaw is None else (np.cos(yaw), np.sin(yaw))
         col_a, col_b = self._column_segment
         col_lo = np.minimum(col_a, col_b) - self._column_radius
         col_hi = np.maximum(col_a, col_b) + self._column_radius
-        boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
-        boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
-        for part, _, _ in hanging:
-            lo, hi = boxes[part.name]
+        hit = np.zeros(tip.shape[0], dtype=bool)
+        maybe = np.zeros(tip.shape[0], dtype=bool)
+        boxes = []
+        for part in self._hanging[loaded]:
+            a, b = (np.stack(e, axis=1) for e in self._hang(part, tip[:, 0], tip[:, 1], tip[:, 2], ux, uy))
+            lo = np.minimum(a, b) - part.radius
+            hi = np.maximum(a, b) + part.radius
+            boxes.append((lo, hi))
+            hit |= lo[:, 2] < self._ground_z
+            maybe |= self._boxes_touch_obstacles(lo, hi)
             maybe |= np.all((lo <= col_hi) & (hi >= col_lo), axis=1)
-            maybe |= np.all((lo <= boom_hi) & (hi >= boom_lo), axis=1)
-        return hit, maybe
+        return hit, maybe, boxes
+
+    def _boxes_touch_obstacles(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Whether each box (lower, upper corners (n, 3)) overlaps some obstacle's box (n,)."""
+        if not self._obstacles:
+            return np.zeros(lo.shape[0], dtype=bool)
+        overlap: np.ndarray = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
+        return np.any(np.all(overlap, axis=2), axis=1)
+
+    def tips_in_collision(self, p_tip: Any, loaded: bool = False) -> np.ndarray:
+        """:meth:`tip_in_collision` for many tip points (n, 3) (m) -> (n,) bool; a vectorised box test
+        decides the points far from everything."""
+        tips = check_points(p_tip, "p_tip", dim=3)
+        loaded = bool(loaded)
+        hit, maybe, _ = self._hanging_screen(tips, loaded)
+        for i in np.flatnonzero(maybe & ~hit):
+            hit[i] = self.tip_in_collision(tips[i], loaded)
+        return hit
 
     @staticmethod
     def _heading_batch(tip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

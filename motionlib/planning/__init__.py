@@ -7,8 +7,9 @@ path
     :func:`~.path.solve_ompl`, the OMPL call for any dimension.
 jointspace
     Joint-space paths (straight line or OMPL) to goal configurations, and the joint-space baseline.
-shape
-    Shape optimisation of a joint path for motion time, keeping every segment valid.
+trajopt
+    Minimum-time joint motion near a valid joint path (CasADi + IPOPT direct transcription,
+    sequential convexification of the clearances).
 joint_to_tip
     A joint path in the product's shape: tip spline of its forward kinematics and a fitted telescope profile.
 lower_bound

@@ -45,13 +45,14 @@ def tip_path_from_joint_path(
     InputError
         The tip does not move, or stops on the way (the spline cannot be parametrised by arc length).
     """
-    pieces = [q_wp[:1]]
-    for a, b in zip(q_wp[:-1], q_wp[1:], strict=True):
-        ends = crane.fk_batch(np.stack([a, b]))
-        probe = a + np.linspace(0.0, 1.0, 9)[:, None] * (b - a)
-        tip_len = float(np.linalg.norm(np.diff(crane.fk_batch(probe), axis=0), axis=1).sum())
-        n = max(1, int(np.ceil(max(tip_len, float(np.linalg.norm(ends[1] - ends[0]))) / step_m)))
-        pieces.append(a + (np.arange(1, n + 1)[:, None] / n) * (b - a))
+    a, b = q_wp[:-1], q_wp[1:]
+    u = np.linspace(0.0, 1.0, 9)
+    probes = crane.fk_batch((a[:, None, :] + u[None, :, None] * (b - a)[:, None, :]).reshape(-1, 4))
+    tip_len = np.linalg.norm(np.diff(probes.reshape(len(a), len(u), 3), axis=1), axis=2).sum(axis=1)  # (n - 1,)
+    counts = np.maximum(1, np.ceil(tip_len / step_m).astype(int))
+    pieces = [q_wp[:1]] + [
+        qa + (np.arange(1, n + 1)[:, None] / n) * (qb - qa) for qa, qb, n in zip(a, b, counts, strict=True)
+    ]
     q = np.concatenate(pieces)
     tips = crane.fk_batch(q)
     spline = TipSpline.from_waypoints(tips)

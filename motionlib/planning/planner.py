@@ -16,8 +16,10 @@ result with a status):
      RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
      configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
      are timed and verified as the joint-space baseline; the ``joint_candidates_max`` fastest
-     are shape-optimised (:mod:`motionlib.planning.shape`) and turned into tip splines with a
-     fitted telescope profile (:mod:`motionlib.planning.joint_to_tip`).
+     are turned into minimum-time joint motions near them (:mod:`motionlib.planning.trajopt`:
+     the joints need not move in step), whose paths become tip splines with a fitted telescope
+     profile (:mod:`motionlib.planning.joint_to_tip`); the joint path itself is the candidate
+     when that fails.
 
 2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the minimum-time
    Bézier telescope profile (CasADi + IPOPT) on every candidate; on ``tip-rrt`` also the
@@ -72,12 +74,13 @@ from .redundancy import (
     TelescopeProfile,
     joint_path,
     optimise_telescope,
+    telescope_bounds,
 )
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
-from .shape import ShapeStatus, optimise_shape
 from .spline import TipSpline
 from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
+from .trajopt import fastest_valid_trajectory
 from .verification import Verifier, time_and_verify
 
 
@@ -94,8 +97,9 @@ class PlanStatus(Enum):
 
 #: Version of the planning pipeline, stored in every library build: a change that gives different
 #: trajectories for the same spec bumps it, so libraries built before are rebuilt.
-#: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins.
-PLANNER_VERSION = 2
+#: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins;
+#: 3: joint candidates are minimum-time joint motions (trajopt).
+PLANNER_VERSION = 3
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -129,6 +133,9 @@ class PlanOptions:
         Every path point must be reachable by some telescope extension with the
         boom and jib this far (rad) inside their limits, so that the path keeps
         away from the edge of the workspace and a smooth telescope profile exists.
+        Minimum-time joint motions keep the slew, boom and jib this far inside theirs, and the
+        telescope ``redundancy.telescope_margin_m`` inside its stroke (also the goal telescope
+        values of joint paths).
     dt_s : float
         Sample period of the stored trajectory (s).
     verify_tip_spacing_m : float
@@ -147,7 +154,8 @@ class PlanOptions:
         Plan joint-space paths (candidates and the joint-space baseline); False gives the
         tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
     joint_candidates_max : int
-        How many joint paths (the fastest in joint space) become candidates in the product's shape.
+        How many joint paths (the fastest in joint space) are optimised into minimum-time motions
+        (:mod:`~motionlib.planning.trajopt`) that become candidates in the product's shape.
     goal_log_yaw : float or None
         Cranes with a grapple rotator: the yaw (rad, base frame, mod pi) the carried log must have
         at the goal, e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW` (aligned with the bunk,
@@ -168,7 +176,7 @@ class PlanOptions:
     jointspace: JointPathOptions = field(default_factory=JointPathOptions)
     goal_telescopes: int = 3
     joint_candidates: bool = True
-    joint_candidates_max: int = 2
+    joint_candidates_max: int = 1
     goal_log_yaw: float | None = None
 
 
@@ -260,6 +268,8 @@ class Planner:
             ]
             self.full_verifier = Verifier(crane, scene, self.full_limits, o.loaded, o.verify_tip_spacing_m)
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
+        #: (4,) rad, m: how far minimum-time joint motions keep inside the joint limits (see PlanOptions)
+        self._limit_margin = np.array([o.reach_margin_rad] * 3 + [o.redundancy.telescope_margin_m])
 
     # ----------------------------------------------------------------- helpers
     def _grapple_valid(self, p_tip: np.ndarray) -> bool:
@@ -400,22 +410,30 @@ class Planner:
             {**joint_details, "baseline_durations_s": baseline_js.durations_s, "verified": baseline_js.verified},
         )
         t0 = time.perf_counter()
-        shapes: dict[str, dict[str, Any]] = {}
-        t_shape = 0.0
+        trajopts: dict[str, dict[str, Any]] = {}
+        t_trajopt = 0.0
         sources: dict[str, np.ndarray] = {}
-        for name in baseline_js.fastest(o.joint_candidates_max):  # the fastest joint paths become candidates
-            sources[name] = joint_paths[name]
+        for name in baseline_js.fastest(o.joint_candidates_max):  # the fastest joint paths, optimised for time
             t1 = time.perf_counter()
-            shape = optimise_shape(crane, joint_paths[name], self._config_valid, self.limits)
-            t_shape += time.perf_counter() - t1
-            shapes[name] = {
-                "status": shape.status.value,
-                "estimate_before_s": shape.estimate_before_s,
-                "estimate_after_s": shape.estimate_after_s,
-                "evaluations": shape.evaluations,
+            motion = fastest_valid_trajectory(
+                crane,
+                joint_paths[name],
+                self._configs_valid,
+                self._clearances,
+                o.jointspace.resolution_s,
+                duration_guess_s=baseline_js.durations_s[name],
+                limit_margin=self._limit_margin,
+            )
+            t_trajopt += time.perf_counter() - t1
+            trajopts[name] = {
+                "status": motion.status.value,
+                "reason": motion.reason,
+                "duration_s": motion.duration_s,
+                "tube_s": motion.tube_s,
+                **motion.diagnostics,
             }
-            if shape.status is ShapeStatus.IMPROVED:  # a candidate beside the unshaped one
-                sources[f"{name}+shape"] = shape.waypoints
+            # the optimised motion's path is the candidate; the joint path itself when that failed
+            sources[f"{name}+trajopt" if motion.ok else name] = motion.polyline() if motion.ok else joint_paths[name]
         for name, q_wp in sources.items():
             try:
                 spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
@@ -427,8 +445,8 @@ class Planner:
                 rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
                 continue
             candidates[name], red_details[name] = self._candidate(spline, start_full, initial)
-        t_redundancy += time.perf_counter() - t0 - t_shape
-        stages["shape"] = StageReport("ok", t_shape, shapes)
+        t_redundancy += time.perf_counter() - t0 - t_trajopt
+        stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
         if not candidates:
             if TIP_SOURCE in rejected_sources and not joint_paths:
@@ -609,13 +627,33 @@ class Planner:
             and not self._path_checker.tip_in_collision(self.crane.fk(q), loaded)
         )
 
+    def _configs_valid(self, qs: np.ndarray) -> bool:
+        """:meth:`_config_valid` for every configuration of ``qs`` (n, 4), with the batched collision checks."""
+        loaded = self.options.loaded
+        return bool(
+            np.all(self.crane.within_limits(qs))
+            and not self._arm_checker.configurations_in_collision(qs, loaded).any()
+            and not self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded).any()
+        )
+
+    def _clearances(self, q: np.ndarray) -> np.ndarray:
+        """The two clearances of :meth:`_config_valid` (m): the arm's beyond ``arm_clearance_m`` and the
+        grapple's (and log's) beyond ``clearance_m``; both >= 0 where the configuration is clear."""
+        loaded = self.options.loaded
+        return np.array(
+            [
+                self._arm_checker.distance(q, loaded).distance,
+                self._path_checker.tip_clearance(self.crane.fk(q), loaded),
+            ]
+        )
+
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Joint paths to ``goal_telescopes`` goal configurations: the one with the smallest lower bound
         first, then values spread over the stroke. Returns paths by name ``joint-<source>-q4=<value>``
         and diagnostics (the reasons of the goals without a path)."""
         crane, o = self.crane, self.options
-        q4_lo, q4_hi = float(crane.q_min[3]), float(crane.q_max[3])
-        telescopes = [best_goal_telescope(crane, self.limits, start_q, goal_p)]
+        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
+        telescopes = [float(np.clip(best_goal_telescope(crane, self.limits, start_q, goal_p), q4_lo, q4_hi))]
         telescopes += list(q4_lo + (q4_hi - q4_lo) * (np.arange(1, o.goal_telescopes) / o.goal_telescopes))
         paths: dict[str, np.ndarray] = {}
         failed: dict[str, str] = {}
@@ -626,7 +664,9 @@ class Planner:
             if not ok[0]:
                 failed[f"q4={q4:.2f}"] = "unreachable"
                 continue
-            res = plan_joint_path(crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed)
+            res = plan_joint_path(
+                crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed, self._configs_valid
+            )
             if res.ok:
                 paths[f"joint-{res.source}-q4={q4:.2f}"] = res.waypoints
             else:
@@ -666,7 +706,7 @@ class Planner:
         if not q_paths:
             fallbacks = {
                 f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
-                for end in np.linspace(crane.q_min[3], crane.q_max[3], 5)
+                for end in np.linspace(*telescope_bounds(crane, o.redundancy.telescope_margin_m), 5)
             }
             q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
             rejected.update(more)

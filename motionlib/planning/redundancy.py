@@ -75,6 +75,10 @@ class RedundancyOptions:
     limit_margin : float
         Margin (rad) kept from the q2/q3 limits at the samples, so that the
         profile stays inside them between samples too.
+    telescope_margin_m : float
+        The profile keeps this far (m) from the ends of the telescope's stroke (unless the start is
+        nearer): a motion planned along an end stop leaves the runtime tracker no room
+        (assumption: 2 cm, a few times the simulated joint's overshoot at the planned speeds).
     max_iter : int
         IPOPT iteration limit.
     check_step_m : float
@@ -84,6 +88,7 @@ class RedundancyOptions:
     degree: int = 5
     n_samples: int = 32
     limit_margin: float = 0.01
+    telescope_margin_m: float = 0.02
     max_iter: int = 300
     check_step_m: float = 0.02
 
@@ -231,6 +236,14 @@ class _Nlp:
     lbg: np.ndarray
     ubg: np.ndarray
     build_time_s: float
+
+
+def telescope_bounds(crane: Crane, margin_m: float, q4_start: float | None = None) -> tuple[float, float]:
+    """The telescope range (m) a planned motion keeps: ``margin_m`` inside the stroke, widened to the start."""
+    lo, hi = float(crane.q_min[3]) + margin_m, float(crane.q_max[3]) - margin_m
+    if q4_start is not None:
+        lo, hi = min(lo, q4_start), max(hi, q4_start)
+    return lo, hi
 
 
 def _bernstein(degree: int, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -442,8 +455,9 @@ def optimise_telescope(
 
     lbx = np.full(x0.shape, -np.inf)
     ubx = np.full(x0.shape, np.inf)
-    lbx[: nlp.n_ctrl] = crane.q_min[3]
-    ubx[: nlp.n_ctrl] = crane.q_max[3]
+    q4_lo, q4_hi = telescope_bounds(crane, options.telescope_margin_m, q4_start)
+    lbx[: nlp.n_ctrl] = q4_lo
+    ubx[: nlp.n_ctrl] = q4_hi
     lbx[nlp.n_ctrl : nlp.n_ctrl + k] = 0.0
     start = [length, q4_start if q4_start is not None else 0.0, 1.0 if q4_start is not None else 0.0]
     params = np.concatenate([pk["rho"], pk["zeta"], pk["drho"], pk["dzeta"], pk["dq1"], start])
@@ -466,7 +480,7 @@ def optimise_telescope(
             None,
             diagnostics=diagnostics,
         )
-    ctrl = np.clip(np.asarray(sol["x"][: nlp.n_ctrl]).ravel(), crane.q_min[3], crane.q_max[3])
+    ctrl = np.clip(np.asarray(sol["x"][: nlp.n_ctrl]).ravel(), q4_lo, q4_hi)
     if q4_start is not None:
         ctrl[0] = q4_start
     profile = TelescopeProfile(ctrl, length)

@@ -16,6 +16,15 @@ contact
     Ground contact of the grapple (penalty spring-damper), computed outside the plant.
 accommodation
     The force-accommodation source, a damping-only impedance (001 section 2.5).
+payload
+    One payload held by several cranes (001 section 3): the broadcast MRF twist, the grasp-frame rate
+    (001 eq. 1), the log as a rigid body on spring-damper grips, the internal force.
+payload_source
+    :class:`~.payload_source.PayloadSource`: the payload's rate at one crane's grasp frame, as its tip rate.
+dual_scenario
+    Dual-crane scenario files: two cranes with base poses and calibration errors, one log, one command.
+dual
+    :func:`~.dual.execute_dual`: two simulated cranes carry one log, with force-moment accommodation.
 tracker
     Path tracking with nearest point and look-ahead (000 eq. 3).
 mixer

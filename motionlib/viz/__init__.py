@@ -8,4 +8,8 @@ meshes
     Triangle meshes of obstacles and capsules.
 viewer
     Self-contained plotly HTML pages of plans, libraries and run logs.
+dual_plots
+    Figures of a dual-crane run: the internal force, the log's tracking and a top view.
+dual_view
+    The 3D HTML view of a dual-crane run: both cranes and the log, animated.
 """

@@ -12,9 +12,9 @@ EXAMPLES = re.findall(r"```python\n(.*?)```", PAGE.read_text(encoding="utf-8"), 
 
 
 def test_page_has_one_example_per_piece():
-    assert len(EXAMPLES) == 3
+    assert len(EXAMPLES) == 4
 
 
-@pytest.mark.parametrize("index", range(len(EXAMPLES)), ids=["frames", "vision", "accommodation"])
+@pytest.mark.parametrize("index", range(len(EXAMPLES)), ids=["frames", "vision", "accommodation", "dual"])
 def test_worked_example_runs(index):
     exec(compile(EXAMPLES[index], f"{PAGE}:example{index + 1}", "exec"), {"__name__": "__doc_example__"})

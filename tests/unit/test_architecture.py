@@ -12,7 +12,7 @@ import pytest
 import motionlib
 
 ROOT = Path(__file__).resolve().parents[2]
-JOBS = ("plan", "build_library", "execute", "log_loading_experiment", "write_view")
+JOBS = ("plan", "build_library", "execute", "execute_dual", "log_loading_experiment", "write_view")
 
 
 def test_layers_never_import_upward():

@@ -365,6 +365,17 @@ def test_batch_and_distance_agree_with_single_checks(shipped_checkers, sample_q,
             assert (d < 0) == flag
 
 
+@pytest.mark.parametrize("scene_name", sorted(SHIPPED))
+@pytest.mark.parametrize("loaded", [False, True])
+def test_batched_tip_checks_agree_with_single_checks(shipped_checkers, sample_q, scene_name, loaded):
+    """tips_in_collision (bounding-box screen + fcl) == tip_in_collision, at the tips of sampled configurations."""
+    checker = shipped_checkers[scene_name]
+    tips = checker.crane.fk_batch(sample_q(checker.crane, 1500, seed=5))
+    single = np.array([checker.tip_in_collision(p, loaded) for p in tips])
+    np.testing.assert_array_equal(checker.tips_in_collision(tips, loaded), single)
+    assert 0.05 < single.mean() < 0.95
+
+
 def _brute_force_min_distance(crane: Crane, scene: Scene, parts) -> float:
     """Minimum over all (capsule, obstacle) pairs with fcl objects built independently here."""
     best = math.inf
