@@ -67,6 +67,9 @@ def execute(
         "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
         "log": str(log_path) if log_path else None,
     }
+    if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
+        report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
+        report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
     if log_path:
         run.write_log(log_path, lib.crane, report)
     if plot_dir:
@@ -96,6 +99,8 @@ def _print_report(s: dict[str, Any]) -> None:
     click.echo(f"  max deviation     {_fmt(s['max_deviation_m'], 'm')}")
     click.echo(f"  handover          {_fmt(s['handover_time_s'], 's', 2)}; arrival {_fmt(s['arrival_time_s'], 's', 2)}")
     click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}")
+    if "log_yaw_end_rad" in s:
+        click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")
     if s["log"]:
         click.echo(f"  run log           {s['log']}")

@@ -14,9 +14,16 @@ from .output import emit_json
 @click.command()
 @crane_option()
 @scene_option()
-@click.option("--start", required=True, help="Named start configuration of the scene, or q1,q2,q3,q4.")
+@click.option("--start", required=True,
+              help="Named start configuration of the scene, or q1,q2,q3,q4 (q1,...,q5 with a grapple rotator).")
 @click.option("--goal", required=True, help="Tip goal x,y,z (m, base frame), or a named point of the scene.")
 @click.option("--loaded", is_flag=True, help="The grapple carries a log.")
+@click.option(
+    "--log-yaw",
+    type=click.FloatRange(PLANNER_RANGES["goal_log_yaw"].hard_lo, PLANNER_RANGES["goal_log_yaw"].hard_hi),
+    help="Cranes with a grapple rotator: yaw (rad, base frame, mod pi) of the carried log at the goal; "
+    "0 aligns it with the bunk. Default: the rotator keeps its start angle.",
+)
 @click.option("-o", "--output", type=click.Path(dir_okay=False), help="Write the trajectory to this HDF5 file.")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
@@ -29,7 +36,8 @@ from .output import emit_json
     type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
     help="Path-planning time budget (s).",
 )
-def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir, seed, planner, time_limit) -> None:
+def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, plot_dir, seed, planner,
+         time_limit) -> None:
     """Plan a collision-free, near time-optimal trajectory (path, telescope profile, timing, verification)."""
     from motionlib import Crane, PlanOptions, Scene
     from motionlib import plan as plan_motion
@@ -37,8 +45,9 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
 
     crane = Crane.load(crane_name)
     scene = Scene.load(scene_file)
-    options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit)
-    start_q = parse_csv_floats(start, 4, "--start", VECTOR_LIMIT) if "," in start else start
+    options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit, goal_log_yaw=log_yaw)
+    n_start = 5 if crane.rotator is not None and start.count(",") == 4 else 4
+    start_q = parse_csv_floats(start, n_start, "--start", VECTOR_LIMIT) if "," in start else start
     goal_p = parse_csv_floats(goal, 3, "--goal", VECTOR_LIMIT) if "," in goal else goal
     result = plan_motion(crane, scene, start_q, goal_p, options).raise_for_status()
     traj = result.trajectory
@@ -65,6 +74,8 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
         "stages": {name: stage.status for name, stage in result.stages.items()},
         "output": str(output) if output else None,
     }
+    if traj.rotator is not None:  # the grapple rotator: the carried log's yaw q1 + q5 at the end
+        summary["log_yaw_end_rad"] = float(crane.log_yaw(traj.full_samples()[0][-1]))
     if as_json:
         emit_json(summary)
         return
@@ -80,6 +91,8 @@ def plan(crane_name, scene_file, start, goal, loaded, output, as_json, plot_dir,
         value = result.baselines[name]
         click.echo(f"  baseline, {label}: " + (f"{value:.2f} s" if value is not None else "infeasible"))
     click.echo(f"  lower bound: {info.lower_bound_s:.2f} s")
+    if "log_yaw_end_rad" in summary:
+        click.echo(f"  log yaw at the end: {summary['log_yaw_end_rad']:.4f} rad")
     click.echo("  stage times: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in summary["stage_times_s"].items()))
     if output:
         click.echo(f"  written to {output}")

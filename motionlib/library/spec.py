@@ -63,6 +63,7 @@ PLANNER_RANGES: dict[str, Plausible] = {
     "degree": Plausible(1, 20, 1, 50),
     "n_samples": Plausible(2, 1000, 2, 10_000),
     "max_iter": Plausible(1, 10_000, 1, 1_000_000),
+    "goal_log_yaw": Plausible(-2 * math.pi, 2 * math.pi, -4 * math.pi, 4 * math.pi, "rad"),
 }
 OTHER_FLOAT = Plausible(0.0, 1e3, 0.0, 1e6)
 OTHER_INT = Plausible(1, 10_000, 1, 1_000_000)
@@ -403,6 +404,8 @@ def _read_options(sec: Section, defaults: Any, skip: tuple[str, ...] = ()) -> di
         elif isinstance(default, float):
             bound = {"gt": 0.0} if f.name in _POSITIVE else {"ge": 0.0}
             out[f.name] = sec.number(f.name, **bound, plausible=PLANNER_RANGES.get(f.name, OTHER_FLOAT))
+        elif f.name == "goal_log_yaw":  # optional number (default None): the carried log's yaw at the goal
+            out[f.name] = sec.number(f.name, plausible=PLANNER_RANGES[f.name])
         elif f.name == "planner":
             from ..planning.path import available_planners
 

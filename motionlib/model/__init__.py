@@ -3,10 +3,12 @@
 Modules
 -------
 crane_model
-    Crane model files (``cranes/<name>.yaml``): :class:`~.crane_model.CraneModel`, read strictly.
+    Crane model files (``cranes/<name>.yaml``): :class:`~.crane_model.CraneModel`, read strictly
+    (optional ``rotator`` section: the grapple rotator q5).
 kinematics
     :class:`~.kinematics.Crane`: forward kinematics on arrays, closed-form inverse kinematics
-    (003 eq. 4.15), the tip Jacobian (000 eq. 1), reachability, link and grapple capsules.
+    (003 eq. 4.15), the tip Jacobian (000 eq. 1), reachability, link and grapple capsules; with the
+    optional grapple rotator q5, the log's yaw ``q1 + q5`` and log-point Jacobians.
 fast_kinematics
     The same tip kinematics on plain floats, for the 200 Hz loop and the simulator.
 limits

@@ -269,17 +269,22 @@ class CollisionChecker:
             return x / radial, y / radial
         return 1.0, 0.0  # atan2(0, 0) = 0, as in Crane.grapple_capsules
 
-    def _place_arm(self, q1: float, q2: float, q3: float, q4: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
+    def _place_arm(
+        self, q1: float, q2: float, q3: float, q4: float, loaded: bool, yaw: float | None = None
+    ) -> tuple[_MovingCapsule, ...]:
         pivot, jib_pivot, jib_end, tip = self._arm_points(q1, q2, q3, q4, _MATH_OPS)
         self.boom.place(pivot, jib_pivot)
         self.jib.place(jib_pivot, jib_end)
         self.telescope.place(jib_end, tip)
-        self._place_hanging(tip[0], tip[1], tip[2], loaded)
+        self._place_hanging(tip[0], tip[1], tip[2], loaded, yaw)
         return self._arm_parts[loaded]
 
-    def _place_hanging(self, x: float, y: float, z: float, loaded: bool) -> tuple[_MovingCapsule, ...]:
+    def _place_hanging(
+        self, x: float, y: float, z: float, loaded: bool, yaw: float | None = None
+    ) -> tuple[_MovingCapsule, ...]:
+        """Place the grapple (and log) at tip (x, y, z); the log along ``yaw`` (rad), or the tip's heading."""
         self._tip_radial = math.hypot(x, y)
-        ux, uy = self._heading(x, y)
+        ux, uy = self._heading(x, y) if yaw is None else (math.cos(yaw), math.sin(yaw))
         parts = self._hanging[loaded]
         for part in parts:
             part.place(*self._hang(part, x, y, z, ux, uy))
@@ -287,13 +292,18 @@ class CollisionChecker:
 
     # ================================================================ checks
     def in_collision(self, q: Any, loaded: bool = False) -> bool:
-        """True when configuration ``q`` (4,) (rad, rad, rad, m) collides (see module docstring)."""
-        return self._collides(*_joint_values(q), bool(loaded))
+        """True when configuration ``q`` (4,) (rad, rad, rad, m) collides (see module docstring).
 
-    def _collides(self, q1: float, q2: float, q3: float, q4: float, loaded: bool) -> bool:
+        A fifth entry is the grapple rotator q5 (rad): the log then lies along the yaw
+        ``q1 + q5`` (:meth:`Crane.log_yaw`) instead of the tip's heading.
+        """
+        q1, q2, q3, q4, yaw = _joint_values(q)
+        return self._collides(q1, q2, q3, q4, bool(loaded), yaw)
+
+    def _collides(self, q1: float, q2: float, q3: float, q4: float, loaded: bool, yaw: float | None = None) -> bool:
         if self.column_blocked:
             return True
-        parts = self._place_arm(q1, q2, q3, q4, loaded)
+        parts = self._place_arm(q1, q2, q3, q4, loaded, yaw)
         if self._below_ground(parts) or self._hanging_hits_column(loaded):
             return True
         boom_self = self._boom_self
@@ -326,14 +336,15 @@ class CollisionChecker:
         column = self._column_self.obj
         return any(fcl.collide(part.obj, column, _COLLIDE_REQUEST) for part in self._hanging[loaded])
 
-    def tip_in_collision(self, p_tip: Any, loaded: bool = False) -> bool:
+    def tip_in_collision(self, p_tip: Any, loaded: bool = False, yaw: float | None = None) -> bool:
         """True when the grapple (and log) hanging at ``p_tip`` (3,) (m) hits the scene, ground or column.
 
-        The planner's tip-state validity: the rest of the crane is not checked.
+        The planner's tip-state validity: the rest of the crane is not checked. ``yaw`` (rad): the
+        log's yaw (default: along the tip's heading).
         """
         x, y, z = _point_values(p_tip)
         loaded = bool(loaded)
-        parts = self._place_hanging(x, y, z, loaded)
+        parts = self._place_hanging(x, y, z, loaded, yaw)
         if self._below_ground(parts) or self._hanging_hits_column(loaded):
             return True
         return self._hits_scene(self._tip_managers[loaded])
@@ -343,8 +354,9 @@ class CollisionChecker:
 
         Parameters
         ----------
-        q : array_like, shape (n, 4)
-            Configurations (rad, rad, rad, m).
+        q : array_like, shape (n, 4) or (n, 5)
+            Configurations (rad, rad, rad, m), with the grapple rotator q5 (rad) as a fifth
+            column when given (the log along ``q1 + q5``).
         loaded : bool
             A log is carried.
 
@@ -354,7 +366,7 @@ class CollisionChecker:
             Same as :meth:`in_collision` row by row; a vectorised bounding-box
             test decides the configurations far from everything.
         """
-        qs = check_points(q, "q", dim=4)
+        qs = check_points(q, "q", dim=5 if np.ndim(q) == 2 and np.shape(q)[1] == 5 else 4)
         return self._batch(qs, bool(loaded), stop_at_first=False)
 
     def segment_in_collision(self, q_a: Any, q_b: Any, loaded: bool = False, tip_resolution: float = 0.01) -> bool:
@@ -378,8 +390,8 @@ class CollisionChecker:
             if stop_at_first and hit.any():
                 return out
             for i in np.flatnonzero(maybe & ~hit):
-                q1, q2, q3, q4 = chunk[i].tolist()
-                if self._collides(q1, q2, q3, q4, loaded):
+                q1, q2, q3, q4, *rest = chunk[i].tolist()
+                if self._collides(q1, q2, q3, q4, loaded, q1 + rest[0] if rest else None):
                     out[start + i] = True
                     if stop_at_first:
                         return out
@@ -397,7 +409,8 @@ class CollisionChecker:
             for p in self._arm_points(qs[:, 0], qs[:, 1], qs[:, 2], qs[:, 3], _NUMPY_OPS)
         )
         segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
-        hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded)
+        yaw = self.crane.log_yaw(qs) if qs.shape[1] == 5 else None  # the log along its yaw q1 + q5
+        hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded, yaw)
         boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
         boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
         for lo, hi in hanging_boxes:
@@ -410,11 +423,12 @@ class CollisionChecker:
         return hit, maybe
 
     def _hanging_screen(
-        self, tip: np.ndarray, loaded: bool
+        self, tip: np.ndarray, loaded: bool, yaw: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
         """Vectorised ground test (exact) and box screen of the hanging parts at tips (n, 3) against the
-        obstacles and the column; also returns the parts' boxes (lower, upper corners (n, 3))."""
-        ux, uy = self._heading_batch(tip)
+        obstacles and the column; also returns the parts' boxes (lower, upper corners (n, 3)). The log
+        lies along ``yaw`` (n,) (rad) when given, else along the tips' headings."""
+        ux, uy = self._heading_batch(tip) if yaw is None else (np.cos(yaw), np.sin(yaw))
         col_a, col_b = self._column_segment
         col_lo = np.minimum(col_a, col_b) - self._column_radius
         col_hi = np.maximum(col_a, col_b) + self._column_radius
@@ -463,9 +477,9 @@ class CollisionChecker:
         only when it is in collision. So ``distance <= 0`` exactly when
         :meth:`in_collision` is True (up to fcl's tolerance at contact).
         """
-        q1, q2, q3, q4 = _joint_values(q)
+        q1, q2, q3, q4, yaw = _joint_values(q)
         loaded = bool(loaded)
-        parts = self._place_arm(q1, q2, q3, q4, loaded)
+        parts = self._place_arm(q1, q2, q3, q4, loaded, yaw)
         boom_self = self._boom_self
         if boom_self is not self.boom:
             boom_self.place(self.boom.a, self.boom.b)
@@ -556,12 +570,15 @@ def _result(best: Closest | None) -> DistanceResult:
     return DistanceResult(float(best[0]), best[1], best[2], best[3])
 
 
-def _joint_values(q: Any) -> tuple[float, float, float, float]:
+def _joint_values(q: Any) -> tuple[float, float, float, float, float | None]:
+    """q1..q4 of a (4,) or (5,) configuration and the log's yaw ``q1 + q5`` (None without q5)."""
     if type(q) is np.ndarray and q.shape == (4,) and q.dtype == np.float64:
         values = q.tolist()
         if all(map(math.isfinite, values)):
-            return tuple(values)
-    return tuple(check_vector(q, 4, "q").tolist())
+            return values[0], values[1], values[2], values[3], None
+    size = 5 if np.shape(q) == (5,) else 4
+    v = check_vector(q, size, "q").tolist()
+    return v[0], v[1], v[2], v[3], (v[0] + v[4] if size == 5 else None)
 
 
 def _point_values(p: Any) -> tuple[float, float, float]:

@@ -24,6 +24,8 @@ from ..schema import Section, load_yaml, read_plausibility
 
 JOINT_NAMES: tuple[str, ...] = ("slew", "boom", "jib", "telescope")
 JOINT_TYPES: tuple[str, ...] = ("revolute", "revolute", "revolute", "prismatic")
+#: Name of the optional added joint q5: the grapple rotator (yaw of the grapple about its hanging axis).
+ROTATOR_NAME = "rotator"
 CRANES_DIR = Path(__file__).parent / "cranes"
 
 _TURN = 2.0 * math.pi
@@ -35,7 +37,7 @@ _TURN = 2.0 * math.pi
 PLAUSIBLE: dict[str, Plausible] = {
     "length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),  # column_height, boom_length, jib_length
     "offset": Plausible(-5.0, 5.0, -1e3, 1e3, "m"),  # boom_pivot_offset, telescope_offset
-    "slew": Plausible(-_TURN, _TURN, -2 * _TURN, 2 * _TURN, "rad"),  # slew lower, upper
+    "slew": Plausible(-_TURN, _TURN, -2 * _TURN, 2 * _TURN, "rad"),  # slew and rotator lower, upper
     "arm": Plausible(-math.pi, math.pi, -2 * _TURN, 2 * _TURN, "rad"),  # boom and jib lower, upper
     "stroke": Plausible(0.0, 10.0, 0.0, 1e3, "m"),  # telescope lower, upper
     "velocity_min": Plausible(-3.0, -0.01, -100.0, -1e-3, "rad/s or m/s"),
@@ -79,6 +81,11 @@ class CraneModel:
     ``hydraulics`` section. ``joint_inertia`` (kg m^2 per rotary joint, kg for the
     telescope) and ``load_mass`` (kg, the grapple and its load on the pendulum rod) are the
     simulated crane's dynamics, ``None`` without a ``dynamics`` section.
+
+    ``rotator`` is the optional added joint q5 (the grapple rotator, a hydraulic motor turning
+    the grapple about its hanging axis; ``None`` without a ``rotator`` section), with its oil
+    displacement ``rotator_displacement`` (m^3/rad, drawn from the same pump; ``None`` without
+    ``hydraulics``). The four arm joints' tuples keep four entries.
     """
 
     name: str
@@ -102,6 +109,13 @@ class CraneModel:
     plausibility: str = "strict"
     joint_inertia: tuple[float, ...] | None = None
     load_mass: float | None = None
+    rotator: JointSpec | None = None
+    rotator_displacement: float | None = None
+
+    @property
+    def has_rotator(self) -> bool:
+        """The crane file declares the grapple rotator q5 (section ``rotator``)."""
+        return self.rotator is not None
 
     def to_dict(self) -> dict:
         """Plain-data form (JSON/YAML serialisable), as embedded in plan and library files.
@@ -112,7 +126,7 @@ class CraneModel:
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
-        for key in ("joint_inertia", "load_mass"):
+        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement"):
             if out[key] is None:
                 del out[key]
         return out
@@ -130,6 +144,8 @@ class CraneModel:
         """
         data = dict(record)
         data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
+        if data.get("rotator") is not None:
+            data["rotator"] = JointSpec(**data["rotator"])
         for key in ("displacement", "joint_inertia"):
             if data.get(key) is not None:
                 data[key] = tuple(data[key])
@@ -149,11 +165,16 @@ class CraneModel:
             name: {k: getattr(j, k) for k in ("lower", "upper", "velocity_min", "velocity_max", "acceleration_max")}
             for name, j in zip(JOINT_NAMES, self.joints, strict=True)
         }
+        if self.rotator is not None:
+            out["rotator"] = {k: getattr(self.rotator, k)
+                              for k in ("lower", "upper", "velocity_min", "velocity_max", "acceleration_max")}
         if self.pump_flow is not None or self.displacement is not None:
             displacement = self.displacement
             out["hydraulics"] = {"pump_flow": self.pump_flow,
                                  "displacement": dict(zip(JOINT_NAMES, displacement, strict=True))
                                  if isinstance(displacement, tuple) else displacement}
+            if self.rotator_displacement is not None:
+                out["hydraulics"]["displacement"][ROTATOR_NAME] = self.rotator_displacement
         out["geometry"] = {k: getattr(self, k) for k in (
             "column_radius", "boom_radius", "jib_radius", "telescope_radius", "grapple_length", "grapple_radius",
             "log_length", "log_diameter")}
@@ -221,31 +242,25 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     for jname, jtype in zip(JOINT_NAMES, JOINT_TYPES, strict=True):
         j = jsec.section(jname)
         position = r["stroke"] if jtype == "prismatic" else r["slew"] if jname == "slew" else r["arm"]
-        lower = j.number("lower")
-        upper = j.number("upper")
-        if not upper > lower:
-            j.fail("upper", f"expected a number > lower ({lower}), got {upper}")
-        if jtype == "prismatic" and lower < 0:
-            j.fail("lower", f"expected a telescope extension >= 0, got {lower}")
-        j.check_plausible("lower", lower, position)
-        j.check_plausible("upper", upper, position)
-        vmin = j.number("velocity_min", lt=0, plausible=r["velocity_min"])
-        vmax = j.number("velocity_max", gt=0, plausible=r["velocity_max"])
-        amax = j.number("acceleration_max", gt=0, plausible=r["acceleration_max"])
-        j.done()
-        joints.append(JointSpec(jname, jtype, lower, upper, vmin, vmax, amax))
+        joints.append(_read_joint(j, jname, jtype, position))
     jsec.done()
+    rotator = None
+    if top.has(ROTATOR_NAME):
+        rotator = _read_joint(top.section(ROTATOR_NAME), ROTATOR_NAME, "revolute", r["slew"])
 
-    pump_flow = displacement = None
+    pump_flow = displacement = rotator_displacement = None
+    names = JOINT_NAMES + ((ROTATOR_NAME,) if rotator is not None else ())
     if top.has("hydraulics"):
         hyd = top.section("hydraulics")
         pump_flow = hyd.number("pump_flow", gt=0, plausible=r["pump_flow"])
         dsec = hyd.section("displacement")
-        displacement = tuple(dsec.number(n, gt=0, plausible=r["displacement"]) for n in JOINT_NAMES)
+        values = tuple(dsec.number(n, gt=0, plausible=r["displacement"]) for n in names)
         dsec.done()
         hyd.done()
-        for n, d in zip(JOINT_NAMES, displacement, strict=True):
+        for n, d in zip(names, values, strict=True):
             dsec.check_plausible(n, pump_flow / d, r["pump_speed"], "the speed pump_flow / displacement: ")
+        displacement = values[:4]
+        rotator_displacement = values[4] if rotator is not None else None
 
     geo = top.section("geometry")
     radii = {k: geo.number(k, gt=0, plausible=r["radius"])
@@ -283,13 +298,36 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         plausibility="relaxed" if relaxed else "strict",
         joint_inertia=joint_inertia,
         load_mass=load_mass,
+        rotator=rotator,
+        rotator_displacement=rotator_displacement,
         **radii,
     )
 
 
-def limits_arrays(model: CraneModel) -> dict[str, np.ndarray]:
-    """Joint limits as (4,) float64 arrays: q_min, q_max, qd_min, qd_max, qdd_max."""
-    js = model.joints
+def _read_joint(j: Section, jname: str, jtype: str, position: Plausible) -> JointSpec:
+    """One joint's section (``lower``, ``upper``, ``velocity_min``, ``velocity_max``, ``acceleration_max``)."""
+    r = PLAUSIBLE
+    lower = j.number("lower")
+    upper = j.number("upper")
+    if not upper > lower:
+        j.fail("upper", f"expected a number > lower ({lower}), got {upper}")
+    if jtype == "prismatic" and lower < 0:
+        j.fail("lower", f"expected a telescope extension >= 0, got {lower}")
+    j.check_plausible("lower", lower, position)
+    j.check_plausible("upper", upper, position)
+    vmin = j.number("velocity_min", lt=0, plausible=r["velocity_min"])
+    vmax = j.number("velocity_max", gt=0, plausible=r["velocity_max"])
+    amax = j.number("acceleration_max", gt=0, plausible=r["acceleration_max"])
+    j.done()
+    return JointSpec(jname, jtype, lower, upper, vmin, vmax, amax)
+
+
+def limits_arrays(model: CraneModel, with_rotator: bool = False) -> dict[str, np.ndarray]:
+    """Joint limits as (4,) float64 arrays: q_min, q_max, qd_min, qd_max, qdd_max.
+
+    With ``with_rotator`` and a crane that has one, (5,) arrays with the rotator q5 last.
+    """
+    js = model.joints + ((model.rotator,) if with_rotator and model.rotator is not None else ())
     return {
         "q_min": np.array([j.lower for j in js]),
         "q_max": np.array([j.upper for j in js]),

@@ -12,8 +12,11 @@ Frames on this crane
 --------------------
 * **Grapple frame G** (the carrier of every MRF): origin at the tip, z up, x along the boom's
   heading ``q1`` (out from the slewing axis), y = z x x. The grapple hangs from the tip and turns
-  with the slew (no rotator joint is modelled, as in :meth:`motionlib.model.kinematics.Crane.grapple_capsules`,
-  which also holds the log along the heading), so G's angular velocity is ``omega = qd1 z``. Swing is
+  with the slew (as :meth:`motionlib.model.kinematics.Crane.grapple_capsules` holds the log along the
+  heading by default), so G's angular velocity is ``omega = qd1 z``. On a crane with the grapple rotator
+  q5 the grapple's yaw is ``q1 + q5`` (:meth:`~motionlib.model.kinematics.Crane.log_yaw`; its point
+  Jacobian is :meth:`~motionlib.model.kinematics.Crane.log_point_jacobian`); the frame sources here still
+  take G along the heading (the rotator held at 0), a limitation of the frame sources on such cranes. Swing is
   not part of the kinematics (it is the plant's).
 * **MRF** (:class:`PointFrame`): a point rigidly attached to G, given by its offset in G (m). The
   crane's own standard points are :func:`standard_mrfs` (tip, grapple centre, log centre, log end);

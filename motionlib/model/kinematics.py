@@ -11,6 +11,12 @@ the jib and telescope act as one link of length ``ell = hypot(L3 + q4, d)``
 turned by ``gamma = atan2(d, L3 + q4)`` (``d`` is the telescope offset), so the
 inverse kinematics for a given telescope extension is the closed-form two-link
 solution (003 eq. 4.15).
+
+The grapple rotator (optional added joint q5, rad, docs/crane-format.md): the grapple hangs from
+the tip on a passive universal joint (000 section 3.1), so at rest its axis is vertical whatever
+the arm's pitch, and the rotator turns it about that axis relative to the slew. The grapple's
+(and a carried log's) yaw in the base frame is therefore ``psi = q1 + q5`` (:meth:`Crane.log_yaw`);
+without a rotator the grapple turns with the slew, ``psi = q1`` (q5 = 0).
 """
 
 from __future__ import annotations
@@ -25,14 +31,18 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_points, check_scalar, check_vector
-from ..errors import UnreachableError
+from ..errors import InputError, UnreachableError
 from .crane_model import CraneModel, limits_arrays, load_crane_model
+from .frames import offset_in_base
 
 NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.arccos, sqrt=np.sqrt)
 
 # Rounding tolerances of ik/ik_batch: a point fk(q) with q on the workspace boundary (arm stretched
 # out, cos_elbow = 1) or on a joint limit must invert, though rounding puts it 1e-16 outside.
 IK_COS_TOL = 1e-12  # on cos_elbow: about 1e-12 m beyond reach
+#: Rotator angles whose distances from the reference differ by less than this (rad) are equally near
+#: (:meth:`Crane.rotator_for_yaw`): a goal's slew a fraction of a degree off a symmetric case must not decide.
+YAW_TIE_RAD = 1e-3
 IK_LIMIT_TOL = 1e-7  # rad or m beyond a joint limit (acos near 1 amplifies rounding to ~sqrt(eps)); clipped
 
 
@@ -82,6 +92,13 @@ class Crane:
         self.qd_min = lim["qd_min"]
         self.qd_max = lim["qd_max"]
         self.qdd_max = lim["qdd_max"]
+        #: The grapple rotator's limits (JointSpec) or None; the arrays above keep the four arm joints.
+        self.rotator = model.rotator
+        #: Joints of a full configuration: 4, or 5 with the rotator q5 last.
+        self.n_joints = 5 if model.rotator is not None else 4
+        full = limits_arrays(model, with_rotator=True)
+        #: (n_joints,) limit arrays of a full configuration (the arm's and the rotator's).
+        self.full_limits: dict[str, np.ndarray] = full
         grid = np.linspace(self.q_min[3], self.q_max[3], self.REACH_TELESCOPE_SAMPLES)
         grid = grid[np.argsort(np.abs(grid - grid.mean()), kind="stable")]  # mid-stroke first
         ext = model.jib_length + grid
@@ -139,6 +156,95 @@ class Crane:
         rho, zeta = self.planar_fk(q[:, 1], q[:, 2], q[:, 3])
         radial = self.model.boom_pivot_offset + rho
         return np.stack([radial * np.cos(q[:, 0]), radial * np.sin(q[:, 0]), self.model.column_height + zeta], axis=1)
+
+    # -------------------------------------------------------------- rotator
+    def log_yaw(self, q: Any) -> Any:
+        """Yaw ``psi`` (rad, base frame) of the hanging grapple and of a carried log's axis.
+
+        ``psi = q1 + q5`` (module docstring); for a configuration without q5 (4 entries) ``psi = q1``.
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 4) or (..., 5)
+
+        Returns
+        -------
+        float or ndarray, shape (...)
+        """
+        q = np.asarray(q, dtype=np.float64)
+        if q.shape[-1] not in (4, 5):
+            raise InputError(f"q: expected 4 or 5 joint values in the last axis, got shape {q.shape}")
+        yaw = q[..., 0] + (q[..., 4] if q.shape[-1] == 5 else 0.0)
+        return float(yaw) if yaw.ndim == 0 else yaw
+
+    def rotator_for_yaw(
+        self, q1: float, yaw: float, q5_ref: float = 0.0, symmetric: bool = True, yaw_ref: float | None = None
+    ) -> float:
+        """Rotator angle q5 (rad) that gives the log the yaw ``yaw`` (rad) at slew ``q1`` (rad).
+
+        ``q5 = yaw - q1 + k pi`` (``k`` even unless ``symmetric``: a log held at its middle is the
+        same turned by pi), the one within the rotator's limits nearest ``q5_ref``; of two equally
+        near (within :data:`YAW_TIE_RAD`), the one whose log yaw ``q1 + q5`` is nearest ``yaw_ref``
+        (rad) when given (the log turns least in the world).
+
+        Raises
+        ------
+        InputError
+            The crane has no rotator, or no such q5 is within its limits.
+        """
+        if self.rotator is None:
+            raise InputError(f"crane {self.name!r} has no rotator (docs/crane-format.md, section rotator)")
+        lo, hi = self.rotator.lower, self.rotator.upper
+        step = math.pi if symmetric else 2.0 * math.pi
+        base = yaw - q1
+        k0 = math.floor((lo - base) / step)
+        options = [base + k * step for k in range(k0, k0 + int(math.ceil((hi - lo) / step)) + 2)]
+        inside = [v for v in options if lo <= v <= hi]
+        if not inside:
+            raise InputError(f"yaw {yaw:.4f} rad at slew {q1:.4f} rad: no rotator angle within [{lo}, {hi}] rad")
+        tie = (lambda v: abs(q1 + v - yaw_ref)) if yaw_ref is not None else (lambda v: 0.0)
+        return float(min(inside, key=lambda v: (round(abs(v - q5_ref) / YAW_TIE_RAD), tie(v))))
+
+    def log_point(self, q: Any, offset: Any) -> np.ndarray:
+        """A point rigidly attached to the hanging grapple: ``p_tip + Rz(psi) o`` (3,) (m, base frame).
+
+        ``offset`` (3,) is the point in the grapple frame (m: x along the log's axis, z up), e.g. the
+        log's end ``(log_length / 2, 0, -(grapple_length - log_diameter / 2))``; ``psi`` is
+        :meth:`log_yaw` of ``q`` (4,) or (5,).
+        """
+        q = np.asarray(q, dtype=np.float64)
+        o = check_vector(offset, 3, "offset")
+        r = offset_in_base(self.log_yaw(q), (float(o[0]), float(o[1]), float(o[2])))
+        return self.fk(q[:4]) + np.asarray(r)
+
+    def log_point_jacobian(self, q: Any, offset: Any) -> np.ndarray:
+        """Jacobian ``d log_point / d q`` (3, n) of :meth:`log_point`, n = len(q) (4 or 5).
+
+        ``v = J_tip qd_arm + (qd1 + qd5) z x r``, ``r = Rz(psi) o`` (001 eq. 1 with
+        ``omega = psi_dot z``): the tip Jacobian (000 eq. 1) plus ``z x r`` in the slew column and,
+        with a rotator, ``z x r`` as the rotator column.
+        """
+        q = np.asarray(q, dtype=np.float64)
+        o = check_vector(offset, 3, "offset")
+        r = offset_in_base(self.log_yaw(q), (float(o[0]), float(o[1]), float(o[2])))
+        z_cross_r = np.array([-r[1], r[0], 0.0])
+        jac = np.zeros((3, q.shape[-1]))
+        jac[:, :4] = self.jacobian(q[:4])
+        jac[:, 0] += z_cross_r
+        if q.shape[-1] == 5:
+            jac[:, 4] = z_cross_r
+        return jac
+
+    def grapple_frame(self, q: Any) -> np.ndarray:
+        """Homogeneous transform (4, 4) of the hanging grapple: origin at the tip, z up, x at yaw ``psi``.
+
+        The frame of the URDF's ``grapple`` link (:func:`motionlib.model.urdf.crane_to_urdf`) with the
+        passive swing joints at rest. ``q`` (4,) or (5,).
+        """
+        q = np.asarray(q, dtype=np.float64)
+        t = _rot_z(self.log_yaw(q))
+        t[:3, 3] = self.fk(q[:4])
+        return t
 
     def frames(self, q: Any) -> dict[str, np.ndarray]:
         """Homogeneous transforms (4, 4) of every link frame in the base frame.
@@ -402,7 +508,7 @@ class Crane:
             Capsule("telescope", jib_end, tip, m.telescope_radius),
         ]
 
-    def grapple_capsules(self, p_tip: Any, loaded: bool = False) -> list[Capsule]:
+    def grapple_capsules(self, p_tip: Any, loaded: bool = False, yaw: float | None = None) -> list[Capsule]:
         """The grapple (and carried log) hanging at rest below the tip.
 
         The grapple is a capsule from the tip down to ``grapple_length`` below it.
@@ -411,8 +517,9 @@ class Crane:
         bunk, which lies along x behind the crane, that is the log aligned with the
         bunk, as it must be to be released between the stakes (and with the lab
         target area, 000 section 3.3: logs "re-oriented to be aligned with the
-        target area"). The rotator angle is not planned. Swing is not included:
-        planning adds a clearance margin instead.
+        target area"). With ``yaw`` (rad, base frame; :meth:`log_yaw`, the rotator turned)
+        the log lies along ``(cos yaw, sin yaw, 0)`` instead. Swing is not included: planning adds
+        a clearance margin instead.
         """
         p = check_vector(p_tip, 3, "p_tip")
         m = self.model
@@ -421,7 +528,7 @@ class Crane:
         bottom = p - np.array([0.0, 0.0, max(m.grapple_length - r, m.grapple_length / 2)])
         caps = [Capsule("grapple", top, bottom, min(r, m.grapple_length / 2))]
         if loaded:
-            heading = np.arctan2(p[1], p[0])
+            heading = np.arctan2(p[1], p[0]) if yaw is None else float(yaw)
             along = np.array([np.cos(heading), np.sin(heading), 0.0])
             log_r = m.log_diameter / 2
             centre = p - np.array([0.0, 0.0, m.grapple_length - log_r])

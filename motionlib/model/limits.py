@@ -14,6 +14,10 @@ Every limit is a :class:`Limit` with
 
 :func:`limits_for` builds the limits of a crane and :func:`verify_samples`
 checks a sampled trajectory against a list of limits.
+
+Limits have four components (the arm joints q1-q4), or five with the grapple rotator q5
+(``limits_for(crane, with_rotator=True)`` on a crane that has one): the rotator is one more
+hydraulic joint with its own velocity and acceleration limits, drawing from the same pump.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import toppra.constraint as tc
@@ -28,10 +33,24 @@ from toppra.constants import JVEL_MAXSD
 
 from ..checks import check_points, check_scalar, check_vector
 from ..errors import InputError
-from .crane_model import JOINT_NAMES
+from .crane_model import JOINT_NAMES, ROTATOR_NAME
 from .kinematics import Crane
 
 N_JOINTS = len(JOINT_NAMES)
+#: Joint names of a configuration with the grapple rotator.
+FULL_JOINT_NAMES: tuple[str, ...] = JOINT_NAMES + (ROTATOR_NAME,)
+
+
+def joint_labels(n: int) -> tuple[str, ...]:
+    """Names of the joints of an n-joint configuration (4: the arm, 5: the arm and the rotator)."""
+    return FULL_JOINT_NAMES[:n]
+
+
+def _joint_vector(value: Any, name: str) -> np.ndarray:
+    """A (4,) or (5,) finite vector of per-joint values."""
+    shape = np.shape(value)
+    size = shape[0] if len(shape) == 1 and shape[0] in (N_JOINTS, N_JOINTS + 1) else N_JOINTS
+    return check_vector(value, size, name)
 
 
 class Limit(ABC):
@@ -43,6 +62,8 @@ class Limit(ABC):
 
     name: str
     labels: tuple[str, ...]
+    #: Joints of the configurations the limit applies to (4, or 5 with the rotator).
+    dof: int = N_JOINTS
 
     @abstractmethod
     def _ratios(self, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
@@ -53,18 +74,18 @@ class Limit(ABC):
 
         Parameters
         ----------
-        q, qd, qdd : array_like, shape (n, 4)
+        q, qd, qdd : array_like, shape (n, dof)
             Joint positions (rad, m), velocities (rad/s, m/s) and accelerations
-            (rad/s^2, m/s^2).
+            (rad/s^2, m/s^2); ``dof`` is 4, or 5 with the rotator.
 
         Returns
         -------
         ndarray, shape (n, len(labels))
             1.0 exactly at the limit, > 1 beyond it (dimensionless).
         """
-        q = check_points(q, "q", dim=N_JOINTS)
-        qd = check_points(qd, "qd", dim=N_JOINTS)
-        qdd = check_points(qdd, "qdd", dim=N_JOINTS)
+        q = check_points(q, "q", dim=self.dof)
+        qd = check_points(qd, "qd", dim=self.dof)
+        qdd = check_points(qdd, "qdd", dim=self.dof)
         if not q.shape == qd.shape == qdd.shape:
             raise InputError(f"q, qd, qdd: expected equal shapes, got {q.shape}, {qd.shape}, {qdd.shape}")
         return self._ratios(q, qd, qdd)
@@ -121,11 +142,12 @@ class JointPositionLimit(Limit):
     """
 
     name = "joint_position"
-    labels = JOINT_NAMES
 
     def __init__(self, q_min: object, q_max: object):
-        self.q_min = check_vector(q_min, N_JOINTS, "q_min")
-        self.q_max = check_vector(q_max, N_JOINTS, "q_max")
+        self.q_min = _joint_vector(q_min, "q_min")
+        self.q_max = check_vector(q_max, self.q_min.shape[0], "q_max")
+        self.dof = self.q_min.shape[0]
+        self.labels = joint_labels(self.dof)
         if not np.all(self.q_max > self.q_min):
             raise InputError(f"q_max: expected every entry > q_min {self.q_min.tolist()}, got {self.q_max.tolist()}")
         self._mid = 0.5 * (self.q_min + self.q_max)
@@ -148,11 +170,12 @@ class JointVelocityLimit(Limit):
     """
 
     name = "joint_velocity"
-    labels = JOINT_NAMES
 
     def __init__(self, qd_min: object, qd_max: object):
-        self.qd_min = check_vector(qd_min, N_JOINTS, "qd_min")
-        self.qd_max = check_vector(qd_max, N_JOINTS, "qd_max")
+        self.qd_min = _joint_vector(qd_min, "qd_min")
+        self.qd_max = check_vector(qd_max, self.qd_min.shape[0], "qd_max")
+        self.dof = self.qd_min.shape[0]
+        self.labels = joint_labels(self.dof)
         if not np.all(self.qd_min < 0):
             raise InputError(f"qd_min: expected negative numbers, got {self.qd_min.tolist()}")
         if not np.all(self.qd_max > 0):
@@ -188,10 +211,11 @@ class JointAccelerationLimit(Limit):
     """
 
     name = "joint_acceleration"
-    labels = JOINT_NAMES
 
     def __init__(self, qdd_max: object):
-        self.qdd_max = check_vector(qdd_max, N_JOINTS, "qdd_max")
+        self.qdd_max = _joint_vector(qdd_max, "qdd_max")
+        self.dof = self.qdd_max.shape[0]
+        self.labels = joint_labels(self.dof)
         if not np.all(self.qdd_max > 0):
             raise InputError(f"qdd_max: expected positive numbers, got {self.qdd_max.tolist()}")
 
@@ -221,7 +245,8 @@ class PumpFlowLimit(Limit):
     labels = ("pump",)
 
     def __init__(self, displacement: object, pump_flow: float):
-        self.displacement = check_vector(displacement, N_JOINTS, "displacement")
+        self.displacement = _joint_vector(displacement, "displacement")
+        self.dof = self.displacement.shape[0]
         if not np.all(self.displacement > 0):
             raise InputError(f"displacement: expected positive numbers, got {self.displacement.tolist()}")
         self.pump_flow = check_scalar(pump_flow, "pump_flow", gt=0.0)
@@ -261,7 +286,7 @@ class PathSpeedConstraint(tc.LinearConstraint):
     def __init__(self, limit: Limit):
         super().__init__()
         self.limit = limit
-        self.dof = N_JOINTS
+        self.dof = limit.dof
         self._format_string = f"    Path speed bound from {limit!r}\n"
 
     def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
@@ -273,7 +298,7 @@ class PathSpeedConstraint(tc.LinearConstraint):
         return None, None, None, None, None, None, xbound
 
 
-def limits_for(crane: Crane, scale: float = 1.0) -> list[Limit]:
+def limits_for(crane: Crane, scale: float = 1.0, with_rotator: bool = False) -> list[Limit]:
     """All limits of a crane.
 
     Parameters
@@ -283,6 +308,9 @@ def limits_for(crane: Crane, scale: float = 1.0) -> list[Limit]:
         Factor in (0, 1] applied to the velocity, acceleration and pump-flow
         limits (not the position limits): a safety factor for time scaling, whose
         constraints hold only at its grid points.
+    with_rotator : bool
+        On a crane with a grapple rotator: limits of 5-joint configurations (the rotator's
+        position, velocity and acceleration limits, and its oil in the pump's flow).
 
     Returns
     -------
@@ -291,13 +319,22 @@ def limits_for(crane: Crane, scale: float = 1.0) -> list[Limit]:
         and, when the model has a ``hydraulics`` section, a ``PumpFlowLimit``.
     """
     scale = check_scalar(scale, "scale", gt=0.0, le=1.0)
+    m = crane.model
+    full = with_rotator and m.rotator is not None
+    lim = crane.full_limits if full else {"q_min": crane.q_min, "q_max": crane.q_max, "qd_min": crane.qd_min,
+                                          "qd_max": crane.qd_max, "qdd_max": crane.qdd_max}
     limits: list[Limit] = [
-        JointPositionLimit(crane.q_min, crane.q_max),
-        JointVelocityLimit(scale * crane.qd_min, scale * crane.qd_max),
-        JointAccelerationLimit(scale * crane.qdd_max),
+        JointPositionLimit(lim["q_min"], lim["q_max"]),
+        JointVelocityLimit(scale * lim["qd_min"], scale * lim["qd_max"]),
+        JointAccelerationLimit(scale * lim["qdd_max"]),
     ]
-    if crane.model.pump_flow is not None:
-        limits.append(PumpFlowLimit(crane.model.displacement, scale * crane.model.pump_flow))
+    if m.pump_flow is not None and m.displacement is not None:
+        displacement = m.displacement
+        if full:
+            if m.rotator_displacement is None:
+                raise InputError(f"crane {crane.name!r}: hydraulics.displacement.rotator is missing")
+            displacement = (*displacement, m.rotator_displacement)
+        limits.append(PumpFlowLimit(displacement, scale * m.pump_flow))
     return limits
 
 
@@ -355,7 +392,7 @@ def verify_samples(
         when every sample is within tolerance.
     """
     t = np.asarray(t, dtype=np.float64)
-    q = check_points(q, "q", dim=N_JOINTS)
+    q = check_points(q, "q", dim=limits[0].dof if limits else N_JOINTS)
     tol = check_scalar(tol, "tol", ge=0.0)
     if t.shape != (q.shape[0],):
         raise InputError(f"t: expected shape ({q.shape[0]},) to match q, got {t.shape}")

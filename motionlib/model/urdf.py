@@ -12,6 +12,17 @@ The URDF has the link frames of :meth:`motionlib.model.kinematics.Crane.frames`
   (jib_length, 0, telescope_offset) in ``jib``.
 * ``tip`` (frame ``tip``): joint ``tip``, fixed, identity.
 
+With a grapple rotator (crane file section ``rotator``) three more joints follow the tip:
+
+* ``grapple_swing_pitch`` (revolute about y, to link ``grapple_hanger``) and
+  ``grapple_swing_roll`` (revolute about x, to link ``grapple_swing``): the passive universal
+  joint the grapple hangs on (000 section 3.1; unactuated: a simulator lets them swing, motionlib's
+  plant models the swing itself). The grapple hangs at rest when pitch = q2 + q3 and roll = 0
+  (:data:`HANGING_REST`); then its axis is vertical.
+* ``rotator`` (revolute about z, to link ``grapple``): the rotator q5 with its limits. At rest the
+  ``grapple`` link frame is :meth:`Crane.grapple_frame` (x along the log's yaw q1 + q5), and it
+  carries the grapple capsule.
+
 so that the URDF's forward kinematics equals :meth:`Crane.fk` (the ``tip`` link
 origin) for every configuration. The axes (0, -1, 0) make a positive boom or jib
 angle lift the arm, as in the crane model.
@@ -36,6 +47,7 @@ What URDF cannot say, and how it is approximated:
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -58,6 +70,15 @@ LINK_OF_FRAME: dict[str, str] = {
     "telescope": "telescope",
     "tip": "tip",
 }
+
+
+#: Links added after ``tip`` when the crane has a grapple rotator.
+ROTATOR_LINKS: tuple[str, ...] = ("grapple_hanger", "grapple_swing", "grapple")
+
+
+def hanging_rest(q: Sequence[float]) -> dict[str, float]:
+    """Values of the passive swing joints with the grapple hanging at rest: pitch q2 + q3, roll 0."""
+    return {"grapple_swing_pitch": float(q[1]) + float(q[2]), "grapple_swing_roll": 0.0}
 
 
 def crane_to_urdf(crane: Crane) -> str:
@@ -125,9 +146,43 @@ def crane_to_urdf(crane: Crane) -> str:
     ET.SubElement(tip, "parent", link="telescope")
     ET.SubElement(tip, "child", link="tip")
     ET.SubElement(tip, "origin", xyz="0 0 0", rpy="0 0 0")
+    if crane.rotator is not None:
+        _add_rotator(robot, crane)
 
     ET.indent(robot)
     return ET.tostring(robot, encoding="unicode", xml_declaration=True) + "\n"
+
+
+def _add_rotator(robot: ET.Element, crane: Crane) -> None:
+    """The passive swing joints, the rotator joint and the grapple link (module docstring)."""
+    spec = crane.rotator
+    assert spec is not None
+    for name in ROTATOR_LINKS:
+        link = ET.SubElement(robot, "link", name=name)
+        if name == "grapple":
+            cap = crane.grapple_capsules(np.zeros(3))[0]
+            _add_capsule(link, cap.a, cap.b, cap.radius)
+    chain = [
+        ("grapple_swing_pitch", "tip", "grapple_hanger", (0.0, 1.0, 0.0)),
+        ("grapple_swing_roll", "grapple_hanger", "grapple_swing", (1.0, 0.0, 0.0)),
+        ("rotator", "grapple_swing", "grapple", (0.0, 0.0, 1.0)),
+    ]
+    for name, parent, child, axis in chain:
+        joint = ET.SubElement(robot, "joint", name=name, type="revolute")
+        ET.SubElement(joint, "parent", link=parent)
+        ET.SubElement(joint, "child", link=child)
+        ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
+        ET.SubElement(joint, "axis", xyz=_fmt(axis))
+        if name == "rotator":
+            joint.append(ET.Comment(
+                f" the grapple rotator q5. velocity: the larger magnitude of velocity_min {spec.velocity_min!r} "
+                f"and velocity_max {spec.velocity_max!r}. acceleration_max {spec.acceleration_max!r}. "))
+            lower, upper, velocity = spec.lower, spec.upper, max(-spec.velocity_min, spec.velocity_max)
+        else:
+            joint.append(ET.Comment(" passive (unactuated) swing joint; hanging at rest: pitch = q2 + q3, roll = 0 "))
+            lower, upper, velocity = -np.pi, np.pi, 10.0
+        ET.SubElement(joint, "limit", lower=_num(lower), upper=_num(upper), velocity=_num(velocity),
+                      effort=_num(EFFORT_PLACEHOLDER))
 
 
 def _add_capsule(link: ET.Element, a: np.ndarray, b: np.ndarray, radius: float) -> None:

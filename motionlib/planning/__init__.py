@@ -18,6 +18,8 @@ spline
     :class:`~.spline.TipSpline`: arc-length cubic spline with nearest-point search.
 redundancy
     Minimum-time Bézier telescope profile with CasADi + IPOPT (003 eqs. 4.14-4.16).
+rotator
+    The grapple rotator's Bézier profile along the path, so a carried log arrives aligned (000 section 3.3).
 phase_plane
     Velocity-limited path speed bound and time (003 eqs. 4.8-4.12).
 timing

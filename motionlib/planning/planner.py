@@ -35,6 +35,14 @@ result with a status):
    under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
    which source won (also ``TrajectoryInfo.path_source``).
 
+Grapple rotator (cranes with one, :mod:`motionlib.planning.rotator`): every candidate's joint path
+gets a fifth column, the rotator profile q5(s), so that the log ends at ``PlanOptions.goal_log_yaw``
+(mod pi; e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW`) or keeps the start angle; the
+arm screen, TOPPRA (the rotator's velocity, acceleration and pump share) and the dense verification
+use it, the collision checks with the log's actual yaw ``q1 + q5``. The path stage (OMPL tip states)
+and the joint-space paths still hold a carried log along the tip's heading, as for a crane without
+a rotator: a proxy; the verified trajectory is checked with the actual yaw.
+
 Every plan reports the pump-aware lower bound and the joint-space baseline beside the
 telescope baselines. :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
@@ -68,6 +76,7 @@ from .redundancy import (
     optimise_telescope,
     telescope_bounds,
 )
+from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
 from .spline import TipSpline
 from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
@@ -147,6 +156,10 @@ class PlanOptions:
     joint_candidates_max : int
         How many joint paths (the fastest in joint space) are optimised into minimum-time motions
         (:mod:`~motionlib.planning.trajopt`) that become candidates in the product's shape.
+    goal_log_yaw : float or None
+        Cranes with a grapple rotator: the yaw (rad, base frame, mod pi) the carried log must have
+        at the goal, e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW` (aligned with the bunk,
+        between the stakes); None: the rotator keeps its start angle. Ignored without a rotator.
     """
 
     loaded: bool = False
@@ -164,6 +177,7 @@ class PlanOptions:
     goal_telescopes: int = 3
     joint_candidates: bool = True
     joint_candidates_max: int = 1
+    goal_log_yaw: float | None = None
 
 
 @dataclass
@@ -175,6 +189,7 @@ class _Candidate:
     profiles: dict[str, TelescopeProfile]
     q_paths: dict[str, np.ndarray]
     rejected: dict[str, str]
+    rotators: dict[str, TelescopeProfile] = field(default_factory=dict)  # rotator profile per usable profile
 
 
 @dataclass
@@ -241,6 +256,17 @@ class Planner:
         ]
         self.verifier = Verifier(crane, scene, self.limits, o.loaded, o.verify_tip_spacing_m)
         self._exact_checker = self.verifier.checker
+        # The candidates' limits, timing attempts and verifier: with the rotator q5 on a crane that has one
+        # (the joint-space baseline and the lower bound keep the arm's four joints).
+        self.full_limits = self.limits
+        self.full_attempts = self.timing_attempts
+        self.full_verifier = self.verifier
+        if crane.rotator is not None:
+            self.full_limits = limits_for(crane, with_rotator=True)
+            self.full_attempts = [
+                (limits_for(crane, scale, with_rotator=True), grid) for scale, grid in TIMING_ATTEMPTS
+            ]
+            self.full_verifier = Verifier(crane, scene, self.full_limits, o.loaded, o.verify_tip_spacing_m)
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
         #: (4,) rad, m: how far minimum-time joint motions keep inside the joint limits (see PlanOptions)
         self._limit_margin = np.array([o.reach_margin_rad] * 3 + [o.redundancy.telescope_margin_m])
@@ -285,6 +311,13 @@ class Planner:
         z_low = float(self.scene.ground_z + m.grapple_length)
         return (-reach, -reach, z_low), (reach, reach, float(m.column_height + reach))
 
+    def _full_start(self, start_q: Any) -> np.ndarray:
+        """The start as (n_joints,): a crane with a rotator takes (5,), or (4,) with q5 = 0."""
+        n = self.crane.n_joints
+        if n == 5 and np.shape(start_q) == (4,):
+            return np.append(check_vector(start_q, 4, "start"), 0.0)
+        return check_vector(start_q, n, "start")
+
     def _goal_unreachable_reason(self, goal: np.ndarray) -> str:
         # The message of the IK at full extension says why (beyond reach, too close, joint limit).
         try:
@@ -299,8 +332,9 @@ class Planner:
 
         Parameters
         ----------
-        start_q : array_like, shape (4,)
-            Start configuration (rad, rad, rad, m); its telescope is held at the start.
+        start_q : array_like, shape (4,) or (5,)
+            Start configuration (rad, rad, rad, m); its telescope is held at the start. A crane
+            with a rotator takes q5 (rad) as a fifth value (default 0).
         goal_p : array_like, shape (3,)
             Goal tip position (m).
 
@@ -309,7 +343,8 @@ class Planner:
         PlanResult
         """
         crane, o = self.crane, self.options
-        start_q = check_vector(start_q, 4, "start")
+        start_full = self._full_start(start_q)
+        start_q = start_full[:4]
         goal_p = check_vector(goal_p, 3, "goal")
         stages: dict[str, StageReport] = {}
 
@@ -317,10 +352,11 @@ class Planner:
             return PlanResult(status, reason, None, stages, baselines or {})
 
         # Query checks.
-        if not crane.within_limits(start_q):
-            return fail(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside the joint limits")
-        if self._exact_checker.in_collision(start_q, o.loaded):
-            d = self._exact_checker.distance(start_q, o.loaded)
+        if not (crane.within_limits(start_q) and _within(start_full, crane.full_limits)):
+            return fail(PlanStatus.QUERY_INVALID,
+                        f"start configuration {start_full.tolist()} is outside the joint limits")
+        if self._exact_checker.in_collision(start_full, o.loaded):
+            d = self._exact_checker.distance(start_full, o.loaded)
             return fail(
                 PlanStatus.QUERY_INVALID, f"start configuration is in collision ({d.crane_part} with {d.obstacle})"
             )
@@ -358,7 +394,7 @@ class Planner:
         red_details: dict[str, Any] = {}
         if path.status is PathStatus.OK and path.spline is not None:
             t0 = time.perf_counter()
-            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_q, None)
+            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
             t_redundancy += time.perf_counter() - t0
         else:
             rejected_sources[TIP_SOURCE] = path.reason
@@ -408,7 +444,7 @@ class Planner:
             if not all(self._grapple_valid(p) for p in spline(s_chk)):
                 rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
                 continue
-            candidates[name], red_details[name] = self._candidate(spline, start_q, initial)
+            candidates[name], red_details[name] = self._candidate(spline, start_full, initial)
         t_redundancy += time.perf_counter() - t0 - t_trajopt
         stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
@@ -417,7 +453,8 @@ class Planner:
                 return fail(PlanStatus.PATH_FAILED, rejected_sources[TIP_SOURCE])
             reasons = "; ".join(f"{k}: {v}" for k, v in rejected_sources.items())
             return fail(PlanStatus.REDUNDANCY_FAILED, "no path candidate is usable: " + reasons)
-        return self._finish(start_q, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s, lower_bound)
+        return self._finish(start_full, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s,
+                            lower_bound)
 
     def plan_along(self, start_q: Any, spline: TipSpline) -> PlanResult:
         """Stages 2-4 on a given tip path: the telescope profile, the timing and the verification.
@@ -429,8 +466,8 @@ class Planner:
 
         Parameters
         ----------
-        start_q : array_like, shape (4,)
-            Start configuration (rad, rad, rad, m); its tip should be the path's start.
+        start_q : array_like, shape (4,) or (5,)
+            Start configuration (rad, rad, rad, m; q5 with a rotator); its tip should be the path's start.
         spline : TipSpline
             The tip path (m, arc length).
 
@@ -439,9 +476,9 @@ class Planner:
         PlanResult
             The goal is the path's end; ``TrajectoryInfo.path_source`` is ``given``.
         """
-        start_q = check_vector(start_q, 4, "start")
+        start_q = self._full_start(start_q)
         stages: dict[str, StageReport] = {}
-        if not self.crane.within_limits(start_q):
+        if not (self.crane.within_limits(start_q[:4]) and _within(start_q, self.crane.full_limits)):
             return PlanResult(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside "
                               "the joint limits", None, stages, {})
         t0 = time.perf_counter()
@@ -478,7 +515,7 @@ class Planner:
         #    grid points only; if the samples between them overshoot a limit by more than the 1 %
         #    tolerance, that path is re-timed under a safety factor on a denser grid (TIMING_ATTEMPTS).
         t0 = time.perf_counter()
-        first_limits, first_grid = self.timing_attempts[0]
+        first_limits, first_grid = self.full_attempts[0]
         timings: dict[tuple[str, str], TimingResult] = {}
         for cname, cand in usable.items():
             for pname, q in cand.q_paths.items():
@@ -506,7 +543,7 @@ class Planner:
             cand = usable[key[0]]
             t1 = time.perf_counter()
             timing, report, attempt = time_and_verify(
-                cand.s_grid, cand.q_paths[key[1]], self.timing_attempts, self.verifier, o.dt_s, first=timed[key]
+                cand.s_grid, cand.q_paths[key[1]], self.full_attempts, self.full_verifier, o.dt_s, first=timed[key]
             )
             t_verify += time.perf_counter() - t1
             ok = bool(timing.ok and report is not None and report.ok)
@@ -542,13 +579,13 @@ class Planner:
         info = TrajectoryInfo(
             duration_s=timing.duration_s,
             path_length_m=float(cand.spline.length),
-            energy_m3=self.verifier.oil_volume_m3(timing.t, timing.qd),
-            min_clearance_m=self.verifier.min_clearance(timing.q),
+            energy_m3=self.full_verifier.oil_volume_m3(timing.t, timing.qd),
+            min_clearance_m=self.full_verifier.min_clearance(timing.q),
             crane=crane.name,
             crane_digest=crane.model.digest,
             scene=self.scene.name,
             scene_digest=self.scene.digest,
-            start_q=tuple(start_q.tolist()),
+            start_q=tuple(start_q[:4].tolist()),
             goal_p=tuple(goal_p.tolist()),
             loaded=o.loaded,
             seed=o.seed,
@@ -559,13 +596,14 @@ class Planner:
             baseline_jointspace_s=baseline_jointspace_s,
             lower_bound_s=lower_bound,
             stages=dict(stages),
-            limits=self.verifier.limits_record(o.clearance_m, o.arm_clearance_m),
+            limits=self.full_verifier.limits_record(o.clearance_m, o.arm_clearance_m),
         )
+        rotator = cand.rotators.get(chosen)
         traj = Trajectory(
             t=timing.t,
-            q=timing.q,
-            qd=timing.qd,
-            qdd=timing.qdd,
+            q=timing.q[:, :4],
+            qd=timing.qd[:, :4],
+            qdd=timing.qdd[:, :4],
             path_s=cand.s_grid,
             path_tip=cand.spline(cand.s_grid),
             waypoints=_waypoints(cand.spline),
@@ -573,6 +611,8 @@ class Planner:
             spline_coefficients=cand.spline.coefficients,
             telescope_control_points=cand.profiles[chosen].control_points,
             info=info,
+            rotator=np.column_stack([timing.q[:, 4], timing.qd[:, 4], timing.qdd[:, 4]]) if rotator else None,
+            rotator_control_points=rotator.control_points if rotator else None,
         )
         baselines["jointspace"] = None if math.isnan(baseline_jointspace_s) else baseline_jointspace_s
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
@@ -634,7 +674,7 @@ class Planner:
         return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
 
     def _candidate(
-        self, spline: TipSpline, start_q: np.ndarray, initial: TelescopeProfile | None
+        self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None
     ) -> tuple[_Candidate, dict[str, Any]]:
         """Telescope profiles on one tip path, screened (see :meth:`_screen`).
 
@@ -642,9 +682,11 @@ class Planner:
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
         profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
-        is kept under ``optimised``).
+        is kept under ``optimised``). ``start_full`` (4,) or (5,) with the rotator.
         """
         crane, o = self.crane, self.options
+        start_q = start_full[:4]
+        q5_start = float(start_full[4]) if start_full.shape[0] == 5 else None
         degree = o.redundancy.degree
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
         details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
@@ -659,51 +701,102 @@ class Planner:
         else:
             profiles["fitted"] = initial
         p_grid = spline(s_grid)
-        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0])
+        rotators: dict[str, TelescopeProfile] = {}
+        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
         if not q_paths:
             fallbacks = {
                 f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
                 for end in np.linspace(*telescope_bounds(crane, o.redundancy.telescope_margin_m), 5)
             }
-            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0])
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
             rejected.update(more)
             profiles.update(fallbacks)
-        return _Candidate(spline, s_grid, profiles, q_paths, rejected), {**details, "rejected": rejected}
+        if rotators:
+            details["rotator"] = {k: v.control_points.tolist() for k, v in rotators.items()}
+        return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), {**details, "rejected": rejected}
 
     def _screen(
-        self, profiles: dict[str, TelescopeProfile], spline: Any, s_grid: np.ndarray, p_grid: np.ndarray, q1: float
+        self,
+        profiles: dict[str, TelescopeProfile],
+        spline: Any,
+        s_grid: np.ndarray,
+        p_grid: np.ndarray,
+        q1: float,
+        q5_start: float | None = None,
+        rotators: dict[str, TelescopeProfile] | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
         """Joint paths (on ``s_grid``) of the profiles that keep the joints within limits and the arm clear.
 
         The arm is checked with the arm-clearance margin at tip steps of that
-        margin; the chosen trajectory is verified exactly later.
+        margin; the chosen trajectory is verified exactly later. With the rotator (``q5_start``
+        given) each usable path gets its rotator profile (the first of
+        :data:`~motionlib.planning.rotator.ROTATOR_SHAPES` whose log keeps the clearance), stored
+        in ``rotators`` by profile name.
 
         Returns
         -------
         usable : dict
-            Profile name -> joint path (len(s_grid), 4).
+            Profile name -> joint path (len(s_grid), 4), or (len(s_grid), 5) with the rotator.
         rejected : dict
             Profile name -> reason.
         """
         o = self.options
         s_check = np.linspace(0.0, spline.length, int(np.ceil(spline.length / o.arm_clearance_m)) + 1)
         p_check = spline(s_check)
-        usable, rejected = {}, {}
+        usable: dict[str, np.ndarray] = {}
+        rejected: dict[str, str] = {}
         for name, profile in profiles.items():
             q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, q1)
             q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, q1)
             if not (ok.all() and ok_chk.all()):
                 rejected[name] = "leaves the joint limits or the reachable set"
+            elif q5_start is not None and rotators is not None:
+                self._screen_rotator(name, q_grid, q_chk, spline.length, s_grid, s_check, q5_start, usable, rejected,
+                                     rotators)
             elif self._arm_checker.configurations_in_collision(q_chk, o.loaded).any():
                 rejected[name] = f"the arm comes within {o.arm_clearance_m} m of an obstacle"
             else:
                 usable[name] = q_grid
         return usable, rejected
 
+    def _screen_rotator(
+        self,
+        name: str,
+        q_grid: np.ndarray,
+        q_chk: np.ndarray,
+        length: float,
+        s_grid: np.ndarray,
+        s_check: np.ndarray,
+        q5_start: float,
+        usable: dict[str, np.ndarray],
+        rejected: dict[str, str],
+        rotators: dict[str, TelescopeProfile],
+    ) -> None:
+        """The first rotator shape whose log (at its actual yaw) and arm keep the clearance (:meth:`_screen`)."""
+        o = self.options
+        try:
+            q5_goal = goal_rotator(self.crane, float(q_grid[-1, 0]), q5_start, o.goal_log_yaw, float(q_grid[0, 0]))
+        except InputError as exc:
+            rejected[name] = str(exc)
+            return
+        shapes = ROTATOR_SHAPES if q5_goal != q5_start else ROTATOR_SHAPES[:1]
+        for shape in shapes:
+            rot = rotator_profile(shape, q5_start, q5_goal, length, o.redundancy.degree)
+            if not self._arm_checker.configurations_in_collision(add_rotator(q_chk, rot, s_check), o.loaded).any():
+                usable[name] = add_rotator(q_grid, rot, s_grid)
+                rotators[name] = rot
+                return
+        rejected[name] = f"the arm or the turned log comes within {o.arm_clearance_m} m of an obstacle"
+
 
 def _waypoints(spline: TipSpline) -> np.ndarray:
     """The points (n, 3) the spline was fitted through; its breakpoints' points when it was built from arrays."""
     return spline.waypoints if spline.waypoints is not None else spline(spline.breakpoints)
+
+
+def _within(q: np.ndarray, limits: dict[str, np.ndarray]) -> bool:
+    """``q`` (n,) within the (n,) position limits ``q_min``, ``q_max`` of ``limits``."""
+    return bool(np.all((q >= limits["q_min"]) & (q <= limits["q_max"])))
 
 
 def _nan_if_none(value: float | None) -> float:
@@ -723,8 +816,9 @@ def plan(
     ----------
     crane : Crane
     scene : Scene
-    start : str or array_like, shape (4,)
-        A named start configuration of the scene, or a configuration.
+    start : str or array_like, shape (4,) or (5,)
+        A named start configuration of the scene, or a configuration (with the rotator q5 on a
+        crane that has one; a named start or a (4,) one has q5 = 0).
     goal : str or array_like, shape (3,)
         A named point of the scene, or a tip position (base frame, m).
     options : PlanOptions, optional

@@ -112,16 +112,17 @@ class TelescopeProfile:
     def degree(self) -> int:
         return len(self.control_points) - 1
 
-    def _poly(self) -> BPoly:
+    def polynomial(self) -> BPoly:
+        """The Bézier polynomial in theta = s / length (scipy ``BPoly`` on [0, 1])."""
         return BPoly(np.asarray(self.control_points, dtype=np.float64)[:, None], [0.0, 1.0])
 
     def __call__(self, s_m: np.ndarray) -> np.ndarray:
         """Telescope extension (m) at arc lengths ``s_m`` (n,)."""
-        return self._poly()(np.asarray(s_m, dtype=np.float64) / self.length_m)
+        return self.polynomial()(np.asarray(s_m, dtype=np.float64) / self.length_m)
 
     def derivative(self, s_m: np.ndarray) -> np.ndarray:
         """d q4 / d s (m/m) at arc lengths ``s_m`` (n,)."""
-        return self._poly().derivative()(np.asarray(s_m, dtype=np.float64) / self.length_m) / self.length_m
+        return self.polynomial().derivative()(np.asarray(s_m, dtype=np.float64) / self.length_m) / self.length_m
 
     @classmethod
     def constant(cls, value: float, length_m: float, degree: int) -> TelescopeProfile:

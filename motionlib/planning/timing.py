@@ -42,7 +42,6 @@ from toppra.interpolator import propose_gridpoints
 
 from ..checks import check_points, check_scalar
 from ..errors import InputError, PlanningError
-from ..model.crane_model import JOINT_NAMES
 from ..model.limits import N_JOINTS, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit, Limit
 
 #: Longest duration (s) :func:`time_scale` samples: far beyond any crane motion; a longer timing
@@ -151,8 +150,9 @@ def time_scale(
     s : array_like, shape (K,)
         Strictly increasing path parameter of the waypoints (any unit, e.g. tip
         arc length in m), K >= 2.
-    q : array_like, shape (K, 4)
-        Joint waypoints (rad, rad, rad, m).
+    q : array_like, shape (K, dof)
+        Joint waypoints (rad, rad, rad, m; with the grapple rotator a fifth column, rad). ``dof``
+        is the limits' (4, or 5 from ``limits_for(crane, with_rotator=True)``).
     limits : sequence of Limit
         Must contain a :class:`JointVelocityLimit` and a
         :class:`JointAccelerationLimit`; a :class:`PumpFlowLimit` adds the flow
@@ -179,7 +179,8 @@ def time_scale(
         Bad shapes or values, or a required limit is missing.
     """
     s_wp = np.asarray(s, dtype=np.float64)
-    q_wp = check_points(q, "q", dim=N_JOINTS)
+    dof = next((lim.dof for lim in limits if isinstance(lim, JointVelocityLimit)), N_JOINTS)
+    q_wp = check_points(q, "q", dim=dof)
     if s_wp.shape != (q_wp.shape[0],) or s_wp.shape[0] < 2 or not np.all(np.isfinite(s_wp)):
         raise InputError(f"s: expected {q_wp.shape[0]} finite numbers (one per waypoint, >= 2), got shape {s_wp.shape}")
     if not np.all(np.diff(s_wp) > 0):
@@ -273,7 +274,7 @@ def _waypoints_outside(q_wp: np.ndarray, limits: Sequence[Limit]) -> str:
             if bad.any():
                 k, j = (int(i) for i in np.argwhere(bad)[0])
                 return (
-                    f"waypoint {k}: joint {JOINT_NAMES[j]} at {q_wp[k, j]:.4f} is outside "
+                    f"waypoint {k}: joint {lim.labels[j]} at {q_wp[k, j]:.4f} is outside "
                     f"[{lim.q_min[j]}, {lim.q_max[j]}] ({int(bad.any(axis=1).sum())} waypoints outside)"
                 )
     return ""

@@ -216,6 +216,12 @@ class Trajectory:
         Bézier control points (m) of the telescope profile over theta = s / l.
     info : TrajectoryInfo
         Duration, path length, energy, clearance, provenance, baselines, stages, limits.
+    rotator : ndarray, shape (N, 3), or None
+        The grapple rotator q5 of a crane with one: its position (rad), velocity (rad/s) and
+        acceleration (rad/s^2) at ``t`` (the log's yaw is ``q[:, 0] + rotator[:, 0]``). Optional
+        datasets ``rotator/samples``; None for cranes without a rotator.
+    rotator_control_points : ndarray, shape (d + 1,), or None
+        Bézier control points (rad) of the rotator profile over theta = s / l.
     """
 
     t: np.ndarray
@@ -229,10 +235,20 @@ class Trajectory:
     spline_coefficients: np.ndarray
     telescope_control_points: np.ndarray
     info: TrajectoryInfo
+    rotator: np.ndarray | None = None
+    rotator_control_points: np.ndarray | None = None
 
     @property
     def duration_s(self) -> float:
         return float(self.t[-1])
+
+    def full_samples(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``q``, ``qd``, ``qdd`` with the rotator as a fifth column when there is one: (N, 4) or (N, 5)."""
+        if self.rotator is None:
+            return self.q, self.qd, self.qdd
+        r = self.rotator
+        return (np.column_stack([self.q, r[:, 0]]), np.column_stack([self.qd, r[:, 1]]),
+                np.column_stack([self.qdd, r[:, 2]]))
 
 
 _ARRAYS = {
@@ -247,6 +263,8 @@ _ARRAYS = {
     "path/spline_coefficients": "spline_coefficients",
     "telescope/control_points": "telescope_control_points",
 }
+#: Optional datasets: the grapple rotator of a crane with one.
+_ROTATOR_ARRAYS = {"rotator/samples": "rotator", "rotator/control_points": "rotator_control_points"}
 
 
 #: Longest trajectory read (samples): 10^7 samples at 200 Hz are 14 hours of motion.
@@ -259,7 +277,9 @@ def write_trajectory(group: h5py.Group, traj: Trajectory, compression: str | Non
     Scalars are stored as native attributes; lists and records as JSON strings
     (readable with ``h5dump``).
     """
-    for key, attr in _ARRAYS.items():
+    for key, attr in {**_ARRAYS, **_ROTATOR_ARRAYS}.items():
+        if getattr(traj, attr) is None:
+            continue
         data = np.ascontiguousarray(getattr(traj, attr), dtype=np.float64)
         big = data.size >= 64
         group.create_dataset(
@@ -300,6 +320,9 @@ def read_trajectory(group: h5py.Group) -> Trajectory:
                 f"({TRAJECTORY_VERSION})"
             )
         arrays = {attr: read_array(group, key, where, MAX_SAMPLES * 4) for key, attr in _ARRAYS.items()}
+        if "rotator" in group:
+            arrays.update({attr: read_array(group, key, where, MAX_SAMPLES * 4)
+                           for key, attr in _ROTATOR_ARRAYS.items()})
         attrs = {
             key: decode_attr(value, f"{where}: attribute {key!r}")
             for key, value in group.attrs.items()
@@ -352,6 +375,13 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
         fail("t does not start at 0 and strictly increase")
     if not math.isclose(traj.info.duration_s, float(traj.t[-1]), rel_tol=1e-9, abs_tol=1e-12):
         fail(f"duration_s {traj.info.duration_s!r:.30} differs from the last time stamp {float(traj.t[-1])!r}")
+    if traj.rotator is not None or traj.rotator_control_points is not None:
+        r, c = traj.rotator, traj.rotator_control_points
+        if r is None or c is None or r.shape != (n, 3) or c.ndim != 1 or c.shape[0] < 1:
+            fail(f"rotator: expected samples ({n}, 3) and control points (d + 1,), got "
+                 f"{None if r is None else r.shape} and {None if c is None else c.shape}")
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(c))):
+            fail("rotator holds a non-finite value")
     start = np.asarray(traj.info.start_q, dtype=np.float64)
     if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
         fail(f"q[0] {rounded(traj.q[0])} differs from start_q {rounded(start)}")
@@ -359,7 +389,9 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
         from ..model.limits import limits_for, verify_samples  # imports TOPPRA: not at the top (select starts fast)
 
         with np.errstate(all="ignore"):  # a damaged sample of 1e308 overflows the ratios: it is a violation
-            violations = verify_samples(traj.t, traj.q, traj.qd, traj.qdd, limits_for(crane), tol=0.01)
+            full = traj.rotator is not None and crane.rotator is not None
+            q, qd, qdd = traj.full_samples() if full else (traj.q, traj.qd, traj.qdd)
+            violations = verify_samples(traj.t, q, qd, qdd, limits_for(crane, with_rotator=full), tol=0.01)
         if violations:
             fail(f"outside the limits of crane {crane.name!r}: {violations[0]}")
 

@@ -5,7 +5,8 @@ Every trajectory the planner returns (and every baseline it reports) goes throug
 tolerance, :func:`motionlib.model.limits.verify_samples`) and the arm, grapple and log
 against the scene with the exact (margin 0) collision checker, at every sample and at
 joint-linear interpolations wherever consecutive samples move the tip more than
-``tip_spacing_m``.
+``tip_spacing_m``. With the grapple rotator (5-joint samples) the checks use the log's actual
+yaw ``q1 + q5`` and the spacing counts the log end's motion from the turn too.
 """
 
 from __future__ import annotations
@@ -64,6 +65,9 @@ class Verifier:
         self.loaded = loaded
         self.tip_spacing_m = tip_spacing_m
         self.checker = CollisionChecker(crane, scene, margin=0.0)
+        m = crane.model
+        #: Farthest hanging point from the grapple's axis (m): a yaw step moves it by this times the step.
+        self._yaw_lever = m.log_length / 2 + m.log_diameter / 2 if loaded else m.grapple_radius
 
     def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> VerificationReport:
         """Dense re-check of samples ``t`` (N,), ``q``, ``qd``, ``qdd`` (N, 4) (s, rad or m and derivatives)."""
@@ -78,9 +82,15 @@ class Verifier:
         return VerificationReport(limits, collisions)
 
     def densify(self, q: np.ndarray) -> np.ndarray:
-        """``q`` (N, 4) with joint-linear points inserted so that the tip moves at most ``tip_spacing_m`` per step."""
+        """``q`` (N, 4) with joint-linear points inserted so that the tip moves at most ``tip_spacing_m`` per step.
+
+        With the rotator (``q`` (N, 5)) the step is the tip's motion plus the hanging parts' farthest
+        point's motion from the yaw change, ``|d p_tip| + lever |d psi|``.
+        """
         tips = self.crane.fk_batch(q)
         step = np.linalg.norm(np.diff(tips, axis=0), axis=1)
+        if q.shape[1] == 5:
+            step = step + self._yaw_lever * np.abs(np.diff(self.crane.log_yaw(q)))
         n_sub = np.maximum(1, np.ceil(step / self.tip_spacing_m).astype(int))
         if n_sub.max() <= 1:
             return q
@@ -117,6 +127,11 @@ class Verifier:
         if c.model.pump_flow is not None and c.model.displacement is not None:
             rec["pump_flow_m3_s"] = c.model.pump_flow
             rec["displacement"] = list(c.model.displacement)
+        if c.rotator is not None and any(lim.dof == 5 for lim in self.limits):
+            r = c.rotator
+            rec["rotator"] = {"lower": r.lower, "upper": r.upper, "velocity_min": r.velocity_min,
+                              "velocity_max": r.velocity_max, "acceleration_max": r.acceleration_max,
+                              "displacement": c.model.rotator_displacement}
         return rec
 
 

@@ -34,11 +34,15 @@ resolved_rate
 operators
     Simulated operators: passive, scripted (CSV), novice and expert models.
 plant
-    :class:`~.plant.SimulatedCrane`: hydraulic joints, end stops and the swinging grapple.
+    :class:`~.plant.SimulatedCrane`: hydraulic joints (with the grapple rotator on a crane that
+    has one), end stops and the swinging grapple.
 hydraulics
     The joint actuators: valve lag, oil compliance (second order), relief bound (000 section 2.1).
 pump
-    Flow sharing of the one load-sensing pump between the joints.
+    Flow sharing of the one load-sensing pump between the joints (the rotator's included).
+rotator
+    The grapple rotator's axis of the summing junction: the operator's rotator stick and the
+    automation's planned rotator profile.
 loop
     :func:`~.loop.run_closed_loop`: controller + plant + operator at the control rate.
 runlog

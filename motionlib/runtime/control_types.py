@@ -121,17 +121,23 @@ class OperatorInput:
         :mod:`motionlib.runtime.sources`). Anything else is handled by the controller (flagged).
     abort : bool
         The abort button (ends an automated motion; control becomes manual).
+    rotator : float
+        The grapple rotator's axis in [-1, 1] (cranes with a rotator,
+        :class:`~motionlib.runtime.rotator.RotatorChannel`); 0 by default.
     """
 
-    __slots__ = ("t", "axes", "abort")
+    __slots__ = ("t", "axes", "abort", "rotator")
 
-    def __init__(self, t: float, axes: Sequence[float] = (0.0, 0.0, 0.0, 0.0), abort: bool = False):
+    def __init__(self, t: float, axes: Sequence[float] = (0.0, 0.0, 0.0, 0.0), abort: bool = False,
+                 rotator: float = 0.0):
         self.t = t
         self.axes = axes
         self.abort = abort
+        self.rotator = rotator
 
     def __repr__(self) -> str:
-        return f"OperatorInput(t={self.t!r}, axes={tuple(self.axes)!r}, abort={self.abort!r})"
+        extra = f", rotator={self.rotator!r}" if self.rotator else ""
+        return f"OperatorInput(t={self.t!r}, axes={tuple(self.axes)!r}, abort={self.abort!r}{extra})"
 
 
 @dataclass

@@ -72,6 +72,7 @@ from .control_types import (
 )
 from .mixer import Mixer, MixerParams, ObstacleGuard
 from .resolved_rate import resolve_rate_fast
+from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
 from .tracker import PathTracker, TrackerParams
 
@@ -189,6 +190,13 @@ class SharedController:
         self._motion_end: Vec3 | None = None
         self._stale = False
         self._nonfinite = False
+        #: The grapple rotator's axis of the summing junction (cranes with a rotator), else None.
+        self.rotator: RotatorChannel | None = (
+            RotatorChannel(crane, prm.dt_s, RotatorParams(limit_margin_frac=min(prm.limit_margin_frac, 0.49),
+                                                          brake_decel_frac=prm.brake_decel_frac,
+                                                          command_ramp=prm.command_ramp))
+            if crane.rotator is not None else None
+        )
 
     # ------------------------------------------------------------ configuration
     def add_source(self, source: RateSource) -> None:
@@ -229,6 +237,8 @@ class SharedController:
         gain = min(self.tracker_params.end_gain_per_s, self.position_gain_max(trajectory.q))
         tracker = PathTracker(trajectory, self.crane, replace(self.tracker_params, end_gain_per_s=gain))
         self.tracker = tracker
+        if self.rotator is not None:
+            self.rotator.start(trajectory)
         self._motion_end = tracker.end
         self._begin(PathTrackerSource(tracker), t, f"{trajectory.duration_s:.3f} s planned")
         return tracker
@@ -280,6 +290,8 @@ class SharedController:
         """
         source = PositionSource(goal_p, gains, v_max_m_s, name="position")
         self.tracker = None
+        if self.rotator is not None:
+            self.rotator.plan = None
         self._motion_end = source.goal
         self._begin(source, t, f"go to {list(source.goal)}")
         return source
@@ -391,6 +403,21 @@ class SharedController:
         st.qd_cmd = cmd
         self._prev = cmd
         return np.array(cmd)
+
+    def rotator_step(self, q5: float, qd5: float, inputs: OperatorInput | None) -> float:
+        """The grapple rotator's command (rad/s) of the step just made (:mod:`motionlib.runtime.rotator`).
+
+        Call after :meth:`step` with the measured rotator angle ``q5`` (rad) and velocity ``qd5``
+        (rad/s): the operator's rotator axis plus, while the automated motion is in control, its
+        planned rotator profile at the tracker's ``s_p``. Stopped (stale input, bad state): 0,
+        ramped. 0 on a crane without a rotator.
+        """
+        if self.rotator is None:
+            return 0.0
+        stopped = self.status.authority == _STOPPED
+        axis = 0.0 if stopped or inputs is None else getattr(inputs, "rotator", 0.0)
+        auto = self._auto_active and not stopped
+        return self.rotator.step(q5, qd5, axis, auto, self.status.s_p, self._ctx.tip_speed)
 
     # ----------------------------------------------------------------- pieces
     def _read_input(self, inputs: OperatorInput | None, t: float) -> tuple[Vec4, bool, int, bool]:

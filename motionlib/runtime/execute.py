@@ -134,7 +134,7 @@ class RunResult:
 
 def prepare_run(
     crane: Crane, scene: Scene, mode: Mode | str, start_q: Any, *, loaded: bool = False,
-    options: ExecuteOptions | None = None,
+    options: ExecuteOptions | None = None, rotator0: float = 0.0,
 ) -> tuple[SharedController, SimulatedCrane]:
     """The controller (with the obstacle guard of ``options``) and the simulated crane of a run.
 
@@ -150,11 +150,13 @@ def prepare_run(
     loaded : bool
         The grapple carries a log (the obstacle guard's geometry).
     options : ExecuteOptions, optional
+    rotator0 : float
+        Start angle (rad) of the grapple rotator (cranes with one).
     """
     opts = options or ExecuteOptions()
     guard = ObstacleGuard(CollisionChecker(crane, scene), loaded=loaded) if opts.obstacle_guard else None
     controller = SharedController(crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard)
-    sim = SimulatedCrane(crane, start_q, replace(opts.sim, seed=opts.seed))
+    sim = SimulatedCrane(crane, start_q, replace(opts.sim, seed=opts.seed), rotator0=rotator0)
     return controller, sim
 
 
@@ -213,7 +215,10 @@ def execute(
         raise InputError(f"start_q: {q0.tolist()} is outside the joint limits of crane {crane.name!r}")
     loaded = trajectory.info.loaded if trajectory is not None else False
 
-    controller, sim = prepare_run(crane, scene, mode, q0, loaded=loaded, options=opts)
+    # the grapple rotator starts where the trajectory's does (cranes with one; final angle in loop.diagnostics)
+    rotator0 = float(trajectory.rotator[0, 0]) if trajectory is not None and trajectory.rotator is not None else 0.0
+    controller, sim = prepare_run(crane, scene, mode, q0, loaded=loaded, options=opts,
+                                  rotator0=rotator0 if crane.rotator is not None else 0.0)
     if trajectory is not None:
         controller.start_motion(trajectory)
     if isinstance(operator, str | Path):

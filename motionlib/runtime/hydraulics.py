@@ -62,7 +62,10 @@ def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_vol
 
 
 class HydraulicJoints:
-    """The four joint actuators (see the module docstring); state lists of 4 floats.
+    """The joint actuators (see the module docstring); state lists of 4 floats, or 5 with the rotator.
+
+    The grapple rotator (a hydraulic motor, crane file section ``rotator``) is one more joint of
+    the same form, drawing from the same pump (its displacement the fifth ``d_i``).
 
     Parameters
     ----------
@@ -95,6 +98,7 @@ class HydraulicJoints:
                  valve_tau_s: float, omega_rad_s: float, damping_ratio: float, a_relief: Sequence[float],
                  displacement: Sequence[float] | None, pump_flow: float | None):
         self.q = [float(a) for a in q]
+        self.n = len(self.q)  # 4, or 5 with the grapple rotator
         self.v = [float(a) for a in v]
         self.x = list(self.v)
         self.s = [-float(a) for a in f]
@@ -111,14 +115,14 @@ class HydraulicJoints:
         self._alpha = 0.0
 
     def substep(self, u: Sequence[float], f: Sequence[float], h: float) -> None:
-        """Advance every joint by ``h`` (s) with the valve command ``u`` (4,) and the load ``f`` (4,)."""
+        """Advance every joint by ``h`` (s) with the valve command ``u`` (n,) and the load ``f`` (n,)."""
         if h != self._h:
             self._h = h
             self._alpha = 1.0 - math.exp(-h / self.tau)
         alpha = self._alpha
         q, v, x, s, y, cap = self.q, self.v, self.x, self.s, self.y, self.a_relief
         if self.second_order:
-            for i in range(4):
+            for i in range(self.n):
                 x[i] += (u[i] - x[i]) * alpha
         else:
             x[:] = u
@@ -128,7 +132,7 @@ class HydraulicJoints:
         self.share = k
         if self.second_order:
             w2, zw2 = self.w2, self.zw2
-            for i in range(4):
+            for i in range(self.n):
                 yi = k * x[i]
                 y[i] = yi
                 fi = f[i]
@@ -144,7 +148,7 @@ class HydraulicJoints:
                 q[i] += (v[i] + 0.5 * a * h) * h
                 v[i] += a * h
         else:
-            for i in range(4):
+            for i in range(self.n):
                 yi = k * x[i]
                 y[i] = yi
                 d = (yi - v[i]) * alpha

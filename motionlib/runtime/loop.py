@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 from ..checks import check_params, param
 from .control_types import Authority
@@ -112,6 +113,7 @@ def run_closed_loop(
     append = log.append
     calm = 0
     settled = False
+    rotator = controller.rotator is not None and sim.crane.rotator is not None
     t0 = time.perf_counter()
     steps = 0
     for steps in range(1, n_max + 1):  # noqa: B007 (steps is reported)
@@ -125,7 +127,12 @@ def run_closed_loop(
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)
-        sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
+        if rotator:  # the grapple rotator's axis (:mod:`motionlib.runtime.rotator`)
+            r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
+            log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
+            sim.advance(status.qd_cmd, dt, r_cmd)
+        else:
+            sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
         if (
             vx * vx + vy * vy + vz * vz < settle_v2
             and not controller.automation_active
@@ -141,8 +148,10 @@ def run_closed_loop(
     wall = time.perf_counter() - t0
     log.events.extend(controller.events)
     cycle = log.t_end - (calm - 1) * dt if settled else log.t_end
-    diag = {
+    diag: dict[str, Any] = {
         "hard_stop_hits": sim.hard_stop_hits,
         "fcl_calls": controller.guard.fcl_calls if controller.guard is not None else 0,
     }
+    if rotator:
+        diag["rotator_rad"] = sim.rotator_q  # the grapple rotator's final angle
     return LoopResult(log, settled, float(cycle), wall, steps, diag)

@@ -28,6 +28,16 @@ saturation and the sum never exceeds the pump (``peak_pump_ratio`` <= 1); the jo
 *velocity* of the second-order model can overshoot the flow's speed transiently (the oil
 spring gives back what it stored), by at most the step response's overshoot.
 
+Grapple rotator (cranes with a ``rotator`` section)
+---------------------------------------------------
+One more hydraulic joint, q5 (rad), of the same form: its command ``rotator_cmd`` (rad/s) of
+:meth:`SimulatedCrane.advance` passes the dead band and the direction-dependent saturation
+(steps 1 and 3; no valve gain deviation, noise or load term), then the same actuator model, with
+its displacement in the shared pump's flow (step 4: the arm slows when the rotator takes oil),
+its relief bound ``accel_factor * qdd_max_5`` and end stops at its limits (step 5). The point-mass
+grapple exerts no torque about its hanging axis, so the rotator carries no load term. State:
+:attr:`SimulatedCrane.rotator_q`, :attr:`SimulatedCrane.rotator_qd`.
+
 Grapple (000 section 3.1: a passive two-axis joint lets it swing)
 -----------------------------------------------------------------
 A point mass on a massless rod of length ``L`` hanging from the tip, i.e. a spherical
@@ -184,6 +194,8 @@ class SimulatedCrane:
         Initial joint velocities (default rest); the grapple starts hanging still relative to the tip.
     t0 : float
         Initial time (s).
+    rotator0 : float
+        Initial grapple rotator angle (rad, within its limits; cranes with a rotator, else ignored).
 
     Attributes
     ----------
@@ -198,7 +210,10 @@ class SimulatedCrane:
     hard_stop_hits : int
         Number of times a joint ran into an end stop.
     peak_pump_ratio : float
-        Largest flow delivered to the joints over the pump's flow so far (<= 1 with pump sharing).
+        Largest flow delivered to the joints (the rotator's included) over the pump's flow so far
+        (<= 1 with pump sharing).
+    rotator_q, rotator_qd : float
+        The grapple rotator's position (rad) and velocity (rad/s); 0 without a rotator.
     joints : HydraulicJoints
         The actuators' state (valve states ``x``, delivered speeds ``y``, sharing factor ``share``).
     """
@@ -210,6 +225,7 @@ class SimulatedCrane:
         params: SimParams | None = None,
         qd0: Any = None,
         t0: float = 0.0,
+        rotator0: float = 0.0,
     ):
         if not isinstance(crane, Crane):
             raise InputError(f"crane: expected a Crane, got {type(crane).__name__}")
@@ -222,12 +238,20 @@ class SimulatedCrane:
         self.t = float(check_scalar(t0, "t0"))
         self.q: tuple[float, ...] = tuple(np.clip(q0, crane.q_min, crane.q_max).tolist())
         self.qd: tuple[float, ...] = tuple(qd0.tolist())
+        rot = crane.rotator
+        self._n = 5 if rot is not None else 4  # actuated joints: the arm's and the rotator
+        rotator0 = float(check_scalar(rotator0, "rotator0"))
+        if rot is not None and not rot.lower - 1e-9 <= rotator0 <= rot.upper + 1e-9:
+            raise InputError(f"rotator0: {rotator0} rad is outside the rotator's limits [{rot.lower}, {rot.upper}]")
+        self.rotator_q = min(max(rotator0, rot.lower), rot.upper) if rot is not None else 0.0
+        self.rotator_qd = 0.0
         self.kin = TipKinematics(crane)
-        self._q_min = tuple(crane.q_min.tolist())
-        self._q_max = tuple(crane.q_max.tolist())
-        self._v_min = tuple(crane.qd_min.tolist())
-        self._v_max = tuple(crane.qd_max.tolist())
-        speed = np.minimum(-crane.qd_min, crane.qd_max)
+        full = crane.full_limits  # (n,) with the rotator last on a crane that has one
+        self._q_min = tuple(full["q_min"].tolist())
+        self._q_max = tuple(full["q_max"].tolist())
+        self._v_min = tuple(full["qd_min"].tolist())
+        self._v_max = tuple(full["qd_max"].tolist())
+        speed = np.minimum(-full["qd_min"], full["qd_max"])
         self._deadband = tuple((prm.deadband_frac * speed).tolist())
         self._rng = random.Random(int(prm.seed))
         self.payload_frac = float(prm.payload_frac)
@@ -236,7 +260,7 @@ class SimulatedCrane:
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
         self.hard_stop_hits = 0
         self.peak_pump_ratio = 0.0
-        self._at_stop = [False] * 4
+        self._at_stop = [False] * self._n
         self._second = prm.model == "second_order"
         model = crane.model
         mass = prm.load_mass_kg if prm.load_mass_kg is not None else model.load_mass
@@ -246,6 +270,11 @@ class SimulatedCrane:
         self._mass = float(mass or 0.0) if self._second else 0.0
         self._inv_inertia = tuple(1.0 / float(i) for i in inertia) if inertia is not None else (0.0,) * 4
         disp = crane.model.displacement
+        if disp is not None and rot is not None:
+            if crane.model.rotator_displacement is None:
+                raise InputError(f"crane {crane.name!r}: hydraulics.displacement.rotator is missing")
+            disp = (*disp, crane.model.rotator_displacement)
+        self._disp = disp
         pump = crane.model.pump_flow
         self._pump = prm.pump_sharing and disp is not None and pump is not None
         # grapple hanging still relative to the tip
@@ -258,19 +287,23 @@ class SimulatedCrane:
         self._tip_prev = tuple(p[r] - v[r] * h for r in range(3))
         self._h_last = h
         self._force = (0.0, 0.0, -self._mass * prm.gravity_m_s2)  # the rod's pull on the tip (N)
+        extra = (self.rotator_q,) if rot is not None else ()
         self.joints = HydraulicJoints(
-            self.q, self.qd, self._load(jac), second_order=self._second, valve_tau_s=prm.tau_s,
-            omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
-            a_relief=(prm.accel_factor * crane.qdd_max).tolist(),
+            self.q + extra, self.qd + (0.0,) * len(extra), self._load(jac), second_order=self._second,
+            valve_tau_s=prm.tau_s, omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
+            a_relief=(prm.accel_factor * full["qdd_max"]).tolist(),
             displacement=list(disp) if self._pump and disp is not None else None,
             pump_flow=float(pump) if self._pump and pump is not None else None,
         )
 
     def _load(self, jac: Sequence[float]) -> list[float]:
-        """Load per unit inertia ``f_i = (J^T F)_i / I_i`` (4,) of the rod's pull ``F`` on the tip."""
+        """Load per unit inertia ``f_i = (J^T F)_i / I_i`` (n,) of the rod's pull ``F`` on the tip (rotator: 0)."""
         fx, fy, fz = self._force
         inv = self._inv_inertia
-        return [(jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv[i] for i in range(4)]
+        load = [(jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv[i] for i in range(4)]
+        if self._n == 5:
+            load.append(0.0)
+        return load
 
     # --------------------------------------------------------------- read-out
     def state(self) -> CraneState:
@@ -318,7 +351,7 @@ class SimulatedCrane:
 
     def _end_stops(self, q: list[float], v: list[float], s: list[float], f: list[float]) -> None:
         """Clamp joints at their end stops, stop the motion into the stop, count new hits (in place)."""
-        for i in range(4):
+        for i in range(self._n):
             if q[i] >= self._q_max[i]:
                 q[i] = self._q_max[i]
                 if v[i] > 0.0:
@@ -337,10 +370,11 @@ class SimulatedCrane:
                 self.hard_stop_hits += 1
 
     # --------------------------------------------------------------- advance
-    def advance(self, qd_cmd: Sequence[float], duration_s: float) -> None:
+    def advance(self, qd_cmd: Sequence[float], duration_s: float, rotator_cmd: float = 0.0) -> None:
         """Hold the joint velocity command ``qd_cmd`` (4,) for ``duration_s`` (s) and integrate.
 
-        A non-finite command component is treated as 0 (the valve closes).
+        ``rotator_cmd`` (rad/s): the grapple rotator's velocity command (ignored without a
+        rotator). A non-finite command component is treated as 0 (the valve closes).
         """
         prm = self.params
         n = max(1, int(round(duration_s / prm.dt_sub_s)))
@@ -364,10 +398,15 @@ class SimulatedCrane:
             elif c < vmin[i]:
                 c = vmin[i]
             u.append(c)
+        if self._n == 5:  # the rotator: dead band and saturation only (module docstring)
+            c = float(rotator_cmd)
+            if not math.isfinite(c) or -db[4] < c < db[4]:
+                c = 0.0
+            u.append(min(max(c, vmin[4]), vmax[4]))
         joints = self.joints
         q, v, s = joints.q, joints.v, joints.s
-        lo0, lo1, lo2, lo3 = self._q_min
-        hi0, hi1, hi2, hi3 = self._q_max
+        lo0, lo1, lo2, lo3 = self._q_min[:4]
+        hi0, hi1, hi2, hi3 = self._q_max[:4]
         tip = self.kin.tip
         sqrt = math.sqrt
         length2 = self.length_m * self.length_m
@@ -382,19 +421,27 @@ class SimulatedCrane:
         _, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
         f = self._load(jac)
         pump_ratio = self.peak_pump_ratio
-        disp = self.crane.model.displacement if self._pump else None
+        disp = self._disp if self._pump else None
+        rotator = self._n == 5
         q_pump = self.crane.model.pump_flow
         for _ in range(n):
             joints.substep(u, f, h)
             if disp is not None and q_pump is not None:
                 y = joints.y
-                r = (disp[0] * abs(y[0]) + disp[1] * abs(y[1]) + disp[2] * abs(y[2]) + disp[3] * abs(y[3])) / q_pump
+                r = disp[0] * abs(y[0]) + disp[1] * abs(y[1]) + disp[2] * abs(y[2]) + disp[3] * abs(y[3])
+                if rotator:
+                    r += disp[4] * abs(y[4])
+                r /= q_pump
                 if r > pump_ratio:
                     pump_ratio = r
-            if not (lo0 < q[0] < hi0 and lo1 < q[1] < hi1 and lo2 < q[2] < hi2 and lo3 < q[3] < hi3):
+            if not (lo0 < q[0] < hi0 and lo1 < q[1] < hi1 and lo2 < q[2] < hi2 and lo3 < q[3] < hi3) or (
+                rotator and not self._q_min[4] < q[4] < self._q_max[4]
+            ):
                 self._end_stops(q, v, s, f)
             else:
                 self._at_stop[0] = self._at_stop[1] = self._at_stop[2] = self._at_stop[3] = False
+                if rotator:
+                    self._at_stop[4] = False
             nx, ny, nz = tip(q[0], q[1], q[2], q[3])
             # grapple: position Verlet with damping on the velocity relative to the tip ...
             sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
@@ -421,6 +468,8 @@ class SimulatedCrane:
             tx, ty, tz = nx, ny, nz
         self.q = (q[0], q[1], q[2], q[3])
         self.qd = (v[0], v[1], v[2], v[3])
+        if rotator:
+            self.rotator_q, self.rotator_qd = q[4], v[4]
         self.peak_pump_ratio = pump_ratio
         self.tip = (tx, ty, tz)
         self._tip_prev = (tpx, tpy, tpz)

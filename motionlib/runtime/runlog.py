@@ -51,6 +51,7 @@ class RunLog:
 
     def __post_init__(self) -> None:
         self._rows: list[tuple] = []
+        self._rotator: list[tuple[float, float, float]] = []
 
     def __len__(self) -> int:
         return len(self._rows)
@@ -65,6 +66,13 @@ class RunLog:
             (t, q[0], q[1], q[2], q[3], qd[0], qd[1], qd[2], qd[3], c[0], c[1], c[2], c[3],
              status.c_a, status.c_o, status.s_p, status.deviation_m, status.flags, int(status.authority), swing_rad)
         )
+
+    def append_rotator(self, q5: float, qd5: float, cmd: float) -> None:
+        """The grapple rotator's row of the step just appended: angle (rad), velocity (rad/s), command (rad/s).
+
+        Cranes with a rotator (:mod:`motionlib.runtime.rotator`); the log then has a ``rotator`` dataset.
+        """
+        self._rotator.append((q5, qd5, cmd))
 
     @property
     def t_end(self) -> float:
@@ -86,7 +94,8 @@ class RunLog:
             ``c_a``, ``c_o`` (N,); ``s_p`` (N,) m; ``deviation_m`` (N,) m (NaN when no
             automated motion runs); ``flags`` (N,) uint16 (:class:`~motionlib.runtime.controller.Flag`);
             ``authority`` (N,) int8 (:class:`~motionlib.runtime.controller.Authority`); ``swing_rad`` (N,);
-            with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s.
+            with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s; with the grapple rotator
+            (:meth:`append_rotator` every step) ``rotator`` (N, 3): q5 (rad), its velocity and command (rad/s).
         """
         data = np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))
         out: dict[str, np.ndarray] = {
@@ -104,6 +113,8 @@ class RunLog:
         }
         if crane is not None:
             out["tip_p"], out["tip_v"] = tip_motion(crane, out["q"], out["qd"])
+        if self._rotator and len(self._rotator) == len(self._rows):
+            out["rotator"] = np.array(self._rotator, dtype=np.float64)
         return out
 
 
@@ -164,8 +175,10 @@ def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str,
 #: Datasets of a run log read back: name -> shape after the sample axis (``tip_p``, ``tip_v`` optional).
 RUNLOG_DATASETS: dict[str, tuple[int, ...]] = {
     "t": (), "q": (4,), "qd": (4,), "qd_cmd": (4,), "c_a": (), "c_o": (), "s_p": (), "deviation_m": (),
-    "flags": (), "authority": (), "swing_rad": (), "tip_p": (3,), "tip_v": (3,),
+    "flags": (), "authority": (), "swing_rad": (), "tip_p": (3,), "tip_v": (3,), "rotator": (3,),
 }
+#: Datasets a run log may lack: the tip's (computed from ``q``) and the grapple rotator's (cranes with one).
+_OPTIONAL_DATASETS = ("tip_p", "tip_v", "rotator")
 #: Longest run log read (samples): 10^7 samples at 200 Hz are 14 hours.
 MAX_RUNLOG_SAMPLES = 10_000_000
 #: Root attributes with a fixed type, checked when present.
@@ -218,7 +231,7 @@ def _read_datasets(f: h5py.File, where: str) -> dict[str, np.ndarray]:
         raise LibraryFileError(f"{where}: dataset t: expected finite, strictly increasing times")
     out = {"t": t}
     for key, tail in RUNLOG_DATASETS.items():
-        if key == "t" or (key.startswith("tip_") and key not in f):
+        if key == "t" or (key in _OPTIONAL_DATASETS and key not in f):
             continue
         dtype = {"flags": np.uint16, "authority": np.int8}.get(key, np.float64)
         data = read_array(f, key, where, MAX_RUNLOG_SAMPLES * 4, dtype)

@@ -193,13 +193,17 @@ class CraneDrawing:
         return self._mesh([self._column], [(cap.a, cap.b)])
 
     def arm(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Boom, jib and telescope at configuration ``q`` (4,): vertices (V, 3) m, triangles (T, 3)."""
-        caps = {c.name: c for c in self.crane.link_capsules(q)}
+        """Boom, jib and telescope at configuration ``q`` (4,) or (5,): vertices (V, 3) m, triangles (T, 3)."""
+        caps = {c.name: c for c in self.crane.link_capsules(q[:4])}
         return self._mesh(self._arm, [(caps[n].a, caps[n].b) for n in self.ARM_LINKS])
 
     def grapple(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Grapple (and log) hanging at the tip of ``q`` (4,): vertices (V, 3) m, triangles (T, 3)."""
-        caps = self.crane.grapple_capsules(self.crane.fk(q), self.loaded)
+        """Grapple (and log) hanging at the tip of ``q`` (4,): vertices (V, 3) m, triangles (T, 3).
+
+        With the grapple rotator (``q`` (5,)) the log lies along its yaw ``q1 + q5``.
+        """
+        yaw = self.crane.log_yaw(q) if len(q) == 5 else None
+        caps = self.crane.grapple_capsules(self.crane.fk(q[:4]), self.loaded, yaw=yaw)
         return self._mesh(self._grapple, [(c.a, c.b) for c in caps])
 
     def traces(self, q: np.ndarray, opacity: float = 1.0, label: str = "") -> list[go.Mesh3d]:
@@ -393,10 +397,11 @@ def trajectory_figure(crane: Crane, scene: Scene, traj: Trajectory, options: Vie
             marker={"size": 5, "color": PATH_COLOUR, "symbol": "x"},
         )
     )  # fmt: skip
-    fig.add_traces(drawing.traces(traj.q[-1], opacity=0.25, label=" at the end"))
+    q_all = traj.full_samples()[0]  # with the grapple rotator as a fifth column when there is one
+    fig.add_traces(drawing.traces(q_all[-1], opacity=0.25, label=" at the end"))
 
     times = frame_times(traj.duration_s, options)
-    q_frames = sample_configurations(traj.t, traj.q, times)
+    q_frames = sample_configurations(traj.t, q_all, times)
     tips = crane.fk_batch(q_frames)
     first = len(fig.data)
     fig.add_traces([_tip_trace(tips[0]), *drawing.traces(q_frames[0])])
@@ -545,7 +550,8 @@ def runlog_figure(
     scene : Scene
     log : dict
         :func:`motionlib.runtime.runlog.read_runlog` output: ``t`` (N,) s, ``q`` (N, 4),
-        ``c_a`` (N,), ``authority`` (N,), ``events``, ``attrs``.
+        ``c_a`` (N,), ``authority`` (N,), ``events``, ``attrs``; ``rotator`` (N, 3) when the crane has
+        a grapple rotator (the log is drawn along its yaw).
     planned_path : ndarray, shape (M, 3), or None
         Tip path of the library trajectory the run executed (m).
     options : ViewOptions
@@ -585,7 +591,9 @@ def runlog_figure(
         )  # fmt: skip
 
     times = frame_times(float(t[-1] - t[0]), options) + t[0]
-    q_frames = sample_configurations(t, q, times)
+    rotator = log.get("rotator")
+    q_all = np.column_stack([q, rotator[:, 0]]) if rotator is not None and crane.rotator is not None else q
+    q_frames = sample_configurations(t, q_all, times)
     index = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
     first = len(fig.data)
     tips = crane.fk_batch(q_frames)
