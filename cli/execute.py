@@ -32,15 +32,18 @@ from .output import emit_json
 @click.option("--time-limit", default=60.0, show_default=True,
               type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
+@click.option("--no-swing-damping", is_flag=True,
+              help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
-    library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, log_path, as_json,
-    plot_dir,
+    library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
+    log_path, as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import ExecuteOptions, Library, execute
+    from motionlib.runtime.control_types import ControllerParams
     from motionlib.runtime.operators import operator_kind
     from motionlib.runtime.plant import SimParams
 
@@ -48,8 +51,9 @@ def execute(
     lib = Library.open(library)
     selection = lib.select(target, current, utility).raise_for_status(str(library))
     row = int(selection.indices[0])
+    controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
-                             sim=SimParams(noise_frac=noise))
+                             sim=SimParams(noise_frac=noise), controller=controller)
     entry = int(lib.entry[row])
     run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
                   start_q=current, options=options,

@@ -74,6 +74,21 @@ def test_passive_m6_json_summary_and_run_log(library, tmp_path: Path):
     assert run["q"].shape[0] == run["t"].shape[0] and run["tip_p"].shape == (run["t"].shape[0], 3)
 
 
+def test_no_swing_damping_keeps_the_tip_on_the_path(library):
+    """``--no-swing-damping``: the tip stays within a few cm of the path (the bound before the swing
+    damping existed) and the grapple swings at least as much as with the damping."""
+    path, ends = library
+    target = ",".join(map(str, ends[0]))
+    runs = {}
+    for flag in ((), ("--no-swing-damping",)):
+        code, out = _run("execute", str(path), "--target", target, "--json", *flag)
+        assert code == 0, out
+        runs[bool(flag)] = json.loads(out)
+    assert runs[True]["settled"] and runs[True]["max_deviation_m"] < 0.1
+    assert runs[True]["peak_swing_rad"] >= runs[False]["peak_swing_rad"]
+    assert runs[True]["max_deviation_m"] < runs[False]["max_deviation_m"]
+
+
 def test_novice_in_m6_with_plots_and_text_output(library, tmp_path: Path):
     path, ends = library
     target = ends[1] + np.array([0.1, -0.1, 0.1])
