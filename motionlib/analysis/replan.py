@@ -8,7 +8,8 @@ move of a segmented recording (S6, S8, S16, S18 of 003 Table 3.1):
 * **along the recorded path**: the operator's own tip path (the recorded tip positions,
   smoothed within ``smoothing_m`` by a smoothing spline, :func:`smooth_path`, and fitted with
   the arc-length cubic spline through points ``waypoint_spacing_m`` apart) gets a new
-  telescope profile (003 section 4.4.2) and a time-optimal timing under the machine's
+  telescope profile (003 section 4.4.2, optimised from the recorded telescope fitted as a
+  Bézier profile, which is a candidate too) and a time-optimal timing under the machine's
   limits, and is densely verified: :meth:`motionlib.planning.planner.Planner.plan_along`.
   The path is the operator's, so it may pass closer to an obstacle than the planner's
   margins: along the path, the grapple and the arm keep ``clearance_m`` (1 cm) instead; a
@@ -40,6 +41,7 @@ from ..errors import InputError, MotionlibError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.planner import Planner, PlanOptions, PlanResult
+from ..planning.redundancy import TelescopeProfile
 from ..planning.spline import TipSpline
 from .recording import Recording
 from .segmentation import Segment, Segmentation, segment_recording
@@ -265,7 +267,17 @@ def _along(rec: Recording, s: Segment, planner: Planner, o: ReplanOptions) -> Re
         spline = TipSpline.from_waypoints(smooth_path(recorded, o.smoothing_m, o.waypoint_spacing_m))
     except InputError as exc:
         return Replanning(ReplanStatus.FAILED, math.nan, f"the recorded path cannot be fitted: {exc}")
-    result = planner.plan_along(rec.q[s.i0], spline)
+    chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(recorded, axis=0), axis=1))])
+    crane = rec.crane
+    telescope = TelescopeProfile.fit(
+        chord * (spline.length / chord[-1]),
+        rec.q[s.i0 : s.i1 + 1, 3],
+        planner.options.redundancy.degree,
+        float(crane.q_min[3]),
+        float(crane.q_max[3]),
+        float(rec.q[s.i0, 3]),
+    )
+    result = planner.plan_along(rec.q[s.i0], spline, telescope)
     r = _from_result(result)
     if r.status is ReplanStatus.OK and result.trajectory is not None:
         tip = rec.crane.fk_batch(result.trajectory.q)

@@ -456,13 +456,13 @@ class Planner:
         return self._finish(start_full, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s,
                             lower_bound)
 
-    def plan_along(self, start_q: Any, spline: TipSpline) -> PlanResult:
+    def plan_along(self, start_q: Any, spline: TipSpline, telescope: TelescopeProfile | None = None) -> PlanResult:
         """Stages 2-4 on a given tip path: the telescope profile, the timing and the verification.
 
-        What :meth:`plan` does with its ``tip-rrt`` candidate, for a path from elsewhere (a
-        recorded operator's tip path, 003 Paper I). The path is not checked for clearance
-        beforehand: the dense verification reports where it touches an obstacle. No lower
-        bound or joint-space baseline is computed (NaN).
+        What :meth:`plan` does with its ``tip-rrt`` candidate (or, with ``telescope``, with a joint
+        candidate), for a path from elsewhere (a recorded operator's tip path, 003 Paper I). The
+        path is not checked for clearance beforehand: the dense verification reports where it
+        touches an obstacle. No lower bound or joint-space baseline is computed (NaN).
 
         Parameters
         ----------
@@ -470,6 +470,9 @@ class Planner:
             Start configuration (rad, rad, rad, m; q5 with a rotator); its tip should be the path's start.
         spline : TipSpline
             The tip path (m, arc length).
+        telescope : TelescopeProfile, optional
+            A telescope profile that goes with the path (e.g. the recorded one, fitted): the
+            optimisation starts from it and it is a candidate profile itself, named ``fitted``.
 
         Returns
         -------
@@ -482,7 +485,7 @@ class Planner:
             return PlanResult(PlanStatus.QUERY_INVALID, f"start configuration {start_q.tolist()} is outside "
                               "the joint limits", None, stages, {})
         t0 = time.perf_counter()
-        candidate, details = self._candidate(spline, start_q, None)
+        candidate, details = self._candidate(spline, start_q, telescope)
         stages["redundancy"] = StageReport("ok" if candidate.q_paths else "failed", time.perf_counter() - t0,
                                            {GIVEN_SOURCE: details})
         goal_p = np.asarray(spline(spline.length), dtype=float)

@@ -98,7 +98,11 @@ def test_path_kept_within_1cm_by_exact_distance(expert_recording):
 
 @pytest.mark.slow
 def test_time_optimal_motion_replanned_finds_no_saving():
-    """A planned (time-optimal) motion recorded and replanned along its path takes the same time (within 3 %)."""
+    """A planned (time-optimal) motion recorded at 50 Hz and replanned along its path saves no time (3 %), and
+    costs at most 5 % more: one step of the verification's safety factor (0.97) and the recorded path's own
+    timing. On the path smoothed from 50 Hz samples TOPPRA's first timing (measured 4.40 s for a 4.38 s
+    plan) overshoots the acceleration limits between its grid points (slew 1.10x at the start), so it is
+    re-timed at 0.97 of the limits (measured 4.53 s)."""
     crane = Crane.load("forwarder")
     scene = Scene.load(ROOT / "obstacles" / "forwarder-site.yaml", crane=crane)
     traj = plan(crane, scene, "bunk-center", "pile-left", PlanOptions(seed=3)).raise_for_status().trajectory
@@ -109,7 +113,7 @@ def test_time_optimal_motion_replanned_finds_no_saving():
                        SegmentationOptions(), False)
     row = replan_recording(rec, seg).motions[0]
     assert row.along.status is ReplanStatus.OK, row.along.reason
-    assert row.along.duration_s == pytest.approx(traj.info.duration_s, rel=0.03)
+    assert 0.97 * traj.info.duration_s <= row.along.duration_s <= 1.05 * traj.info.duration_s
     assert row.along.deviation_m <= 0.01
 
 
