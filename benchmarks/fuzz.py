@@ -9,7 +9,8 @@ values replaced by interesting ones (1e308, NaN, huge integers, strings, lists .
 scaled by powers of ten, byte flips, non-UTF-8 bytes, indentation changes, swapped and
 truncated lines. HDF5 files (plan, library, run log) get truncations, bit flips, deleted
 datasets, groups and attributes, changed dtypes and shapes, NaN, inf and huge values in
-the data, garbage and damaged JSON attributes.
+the data, garbage and damaged JSON attributes (:func:`mutate_h5`: structural changes are
+sealed again, byte damage is not).
 
 Each input goes through the reader's API and the use a command makes of it
 (:data:`READERS`): loading a crane builds its kinematics and a collision checker; a
@@ -234,34 +235,46 @@ def _objects(f: Any) -> list[tuple[str, Any]]:
 
 
 def mutate_h5(data: bytes, path: Path, rng: np.random.Generator) -> None:
-    """Write a mutated copy of the HDF5 file ``data`` to ``path`` (one to two mutations)."""
+    """Write a mutated copy of the sealed HDF5 file ``data`` to ``path`` (one to two mutations).
+
+    Structural mutations (objects, attributes, dtypes, shapes, values changed through h5py) are
+    applied first and the file is sealed again (:func:`motionlib.fileio.seal_hdf5`): they stand
+    for a file written wrong, and exercise the readers' checks behind the seal. Byte-level
+    mutations (truncation, bit flips, random bytes, a flip in the first 4 kB: the seal and the
+    superblock) come last and are not sealed: damage after the file was written, which the seal
+    check must refuse before libhdf5 parses the file.
+    """
     import h5py
 
+    from motionlib.fileio import seal_hdf5
+
     path.write_bytes(data)
-    for _ in range(int(rng.integers(1, 3))):
-        op = int(rng.integers(14))
-        if op < 4:  # byte level
-            b = bytearray(path.read_bytes())
-            if not b:
-                return
-            if op == 0:
-                b = b[: int(rng.integers(len(b)))]
-            elif op == 1:
-                for _ in range(int(rng.integers(1, 17))):
-                    b[int(rng.integers(len(b)))] ^= 1 << int(rng.integers(8))
-            elif op == 2:
-                k = int(rng.integers(len(b)))
-                b[k : k + 64] = bytes(rng.integers(0, 256, min(64, len(b) - k), dtype=np.uint8))
-            else:
-                k = int(rng.integers(min(4096, len(b))))
-                b[k] ^= 1 << int(rng.integers(8))
-            path.write_bytes(bytes(b))
-            continue
+    ops = [int(rng.integers(14)) for _ in range(int(rng.integers(1, 3)))]
+    structural = [op for op in ops if op >= 4]
+    for op in structural:
         try:
             with h5py.File(path, "r+") as f:
                 _mutate_structure(f, op, rng)
         except (OSError, KeyError, RuntimeError, ValueError, TypeError):
-            return  # the file was already broken by an earlier byte mutation, or the operation does not apply
+            pass  # the operation does not apply
+    if structural:
+        seal_hdf5(path)
+    for op in (op for op in ops if op < 4):  # byte level
+        b = bytearray(path.read_bytes())
+        if not b:
+            return
+        if op == 0:
+            b = b[: int(rng.integers(len(b)))]
+        elif op == 1:
+            for _ in range(int(rng.integers(1, 17))):
+                b[int(rng.integers(len(b)))] ^= 1 << int(rng.integers(8))
+        elif op == 2:
+            k = int(rng.integers(len(b)))
+            b[k : k + 64] = bytes(rng.integers(0, 256, min(64, len(b) - k), dtype=np.uint8))
+        else:
+            k = int(rng.integers(min(4096, len(b))))
+            b[k] ^= 1 << int(rng.integers(8))
+        path.write_bytes(bytes(b))
 
 
 def _mutate_structure(f: Any, op: int, rng: np.random.Generator) -> None:
@@ -566,13 +579,12 @@ def _use_script(path: Path) -> Any:
 
 
 def _use_plan(path: Path) -> Any:
-    import h5py
-
+    from motionlib.fileio import open_sealed
     from motionlib.model.embedded import embedded_models
-    from motionlib.planning.trajectory import load_plan
+    from motionlib.planning.trajectory import TRAJECTORY_SCHEMA, load_plan
 
     traj = load_plan(path)
-    with h5py.File(path, "r") as f:
+    with open_sealed(path, TRAJECTORY_SCHEMA) as f:
         crane, _ = embedded_models(f.attrs, str(path))
     crane.fk_batch(traj.q)
     return traj
