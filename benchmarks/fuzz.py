@@ -1,6 +1,7 @@
 """Fuzzing the file readers: mutated crane, scene, spec, stick-script, plan, library and run-log files.
 
-Run: ``python benchmarks/fuzz.py [--n 1000000] [--readers crane,scene,...] [--seed 0] [--workers 2]``
+Run: ``python benchmarks/fuzz.py [--n 1000000] [--readers crane,scene,...] [--seed 0] [--workers 2] [--budget S]``
+(``--budget``: stop each reader after S seconds; the table counts the inputs done).
 
 Every reader gets ``--n`` inputs, each a seeded mutation of a valid file (input ``i`` of
 reader ``r`` is a pure function of ``(seed, r, i)``: ``--reproduce READER:I`` writes it
@@ -671,9 +672,11 @@ def run_cases(reader: Reader, index: int, seed: int, cases: range, workdir: Path
 
 # ====================================================================== isolated runs (benchmark)
 def _child(reader: Reader, index: int, seed: int, start: int, stop: int, workdir: str, current: Any,
-           counts: Any, examples_file: str) -> None:
+           counts: Any, examples_file: str, halt: Any) -> None:
     work = Path(workdir)
     for i in range(start, stop):
+        if halt.value:  # the time budget is spent: stop between two cases
+            break
         current.value = i
         outcome, detail = run_case(reader, reader.make(seed, index, i, work))
         counts[OUTCOMES.index(outcome)] += 1
@@ -684,20 +687,27 @@ def _child(reader: Reader, index: int, seed: int, start: int, stop: int, workdir
 
 
 def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, timeout_s: float,
-                 examples_file: Path) -> tuple[list[int], float]:
-    """Run cases 0..n-1 of ``reader`` in child processes; a child that dies or hangs counts its case and is replaced."""
+                 examples_file: Path, budget_s: float = math.inf) -> tuple[list[int], float]:
+    """Run cases 0..n-1 of ``reader`` in child processes; a child that dies or hangs counts its case and is replaced.
+
+    After ``budget_s`` seconds the child stops after its current case: the counts then cover
+    cases 0..k-1 for some k < n (the table's ``inputs`` column says how many).
+    """
     ctx = multiprocessing.get_context("fork")
     current = ctx.Value("q", 0)
     counts = ctx.Array("q", len(OUTCOMES))
+    halt = ctx.Value("b", 0)
     start, t0 = 0, time.perf_counter()
     while start < n:
         current.value = start
         proc = ctx.Process(target=_child, args=(reader, index, seed, start, n, str(workdir), current, counts,
-                                                str(examples_file)), daemon=True)
+                                                str(examples_file), halt), daemon=True)
         proc.start()
         last, seen = current.value, time.monotonic()
         while proc.is_alive():
             proc.join(0.5)
+            if time.perf_counter() - t0 > budget_s:
+                halt.value = 1
             if current.value != last:
                 last, seen = current.value, time.monotonic()
             elif time.monotonic() - seen > timeout_s:
@@ -705,7 +715,7 @@ def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, t
                 proc.join()
                 break
         failed = current.value
-        if failed >= n:
+        if failed >= n or (halt.value and proc.exitcode == 0):
             break
         outcome = "hang" if proc.exitcode == -9 else "signal"
         counts[OUTCOMES.index(outcome)] += 1
@@ -717,11 +727,11 @@ def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, t
 
 
 def _run_one(args: tuple) -> tuple[str, list[int], float]:
-    name, index, seed, n, workdir, timeout_s, examples_file, fixtures = args
+    name, index, seed, n, workdir, timeout_s, examples_file, fixtures, budget_s = args
     reader = make_readers(fixtures)[name]
     sub = Path(workdir) / name
     sub.mkdir(exist_ok=True)
-    counts, wall = run_isolated(reader, index, seed, n, sub, timeout_s, Path(examples_file))
+    counts, wall = run_isolated(reader, index, seed, n, sub, timeout_s, Path(examples_file), budget_s)
     return name, counts, wall
 
 
@@ -734,6 +744,8 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds without progress that count as a hang")
     parser.add_argument("--examples", default="fuzz-examples.jsonl", help="file receiving every non-clean outcome")
     parser.add_argument("--reproduce", help="READER:I: write input I of READER to the current directory and read it")
+    parser.add_argument("--budget", type=float, default=math.inf,
+                        help="seconds per reader: stop after it with the inputs done so far (the inputs column)")
     args = parser.parse_args()
     workdir = Path(tempfile.mkdtemp(prefix="motionlib-fuzz-"))
     try:
@@ -750,9 +762,10 @@ def main() -> None:
             return
         examples = Path(args.examples)
         examples.write_text("")
-        jobs = [(n, all_names.index(n), args.seed, args.n, str(workdir), args.timeout, str(examples), fixtures)
-                for n in names]
-        print(f"{args.n} inputs per reader, seed {args.seed}, {args.workers} readers at a time; python "
+        jobs = [(n, all_names.index(n), args.seed, args.n, str(workdir), args.timeout, str(examples), fixtures,
+                 args.budget) for n in names]
+        budget = f" or {args.budget:.0f} s" if math.isfinite(args.budget) else ""
+        print(f"{args.n} inputs per reader{budget}, seed {args.seed}, {args.workers} readers at a time; python "
               f"{sys.version.split()[0]}; non-clean outcomes in {examples}")
         header = f"{'reader':<8}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
         print(header)
