@@ -89,8 +89,11 @@ def _count_parts(parts: Path) -> int:
 
 
 def _marked_copy(reference: Path, out: Path) -> None:
-    """Write a copy of the library ``reference`` to ``out`` with an extra root attribute (another good file)."""
-    with h5py.File(reference, "r") as src, h5py.File(out, "w") as dst:
+    """Write a copy of the library ``reference`` to ``out`` with an extra root attribute (another good, sealed file)."""
+    from motionlib.fileio import open_sealed, sealed_hdf5_output
+    from motionlib.library.store import LIBRARY_SCHEMA
+
+    with open_sealed(reference, LIBRARY_SCHEMA) as src, sealed_hdf5_output(out, LIBRARY_SCHEMA) as dst:
         for key, value in src.attrs.items():
             dst.attrs[key] = value
         for name in src:

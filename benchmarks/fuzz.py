@@ -1,6 +1,7 @@
 """Fuzzing the file readers: mutated crane, scene, spec, stick-script, plan, library and run-log files.
 
-Run: ``python benchmarks/fuzz.py [--n 1000000] [--readers crane,scene,...] [--seed 0] [--workers 2]``
+Run: ``python benchmarks/fuzz.py [--n 1000000] [--readers crane,scene,...] [--seed 0] [--workers 2] [--budget S]``
+(``--budget``: stop each reader after S seconds; the table counts the inputs done).
 
 Every reader gets ``--n`` inputs, each a seeded mutation of a valid file (input ``i`` of
 reader ``r`` is a pure function of ``(seed, r, i)``: ``--reproduce READER:I`` writes it
@@ -9,7 +10,8 @@ values replaced by interesting ones (1e308, NaN, huge integers, strings, lists .
 scaled by powers of ten, byte flips, non-UTF-8 bytes, indentation changes, swapped and
 truncated lines. HDF5 files (plan, library, run log) get truncations, bit flips, deleted
 datasets, groups and attributes, changed dtypes and shapes, NaN, inf and huge values in
-the data, garbage and damaged JSON attributes.
+the data, garbage and damaged JSON attributes (:func:`mutate_h5`: structural changes are
+sealed again, byte damage is not).
 
 Each input goes through the reader's API and the use a command makes of it
 (:data:`READERS`): loading a crane builds its kinematics and a collision checker; a
@@ -234,34 +236,46 @@ def _objects(f: Any) -> list[tuple[str, Any]]:
 
 
 def mutate_h5(data: bytes, path: Path, rng: np.random.Generator) -> None:
-    """Write a mutated copy of the HDF5 file ``data`` to ``path`` (one to two mutations)."""
+    """Write a mutated copy of the sealed HDF5 file ``data`` to ``path`` (one to two mutations).
+
+    Structural mutations (objects, attributes, dtypes, shapes, values changed through h5py) are
+    applied first and the file is sealed again (:func:`motionlib.fileio.seal_hdf5`): they stand
+    for a file written wrong, and exercise the readers' checks behind the seal. Byte-level
+    mutations (truncation, bit flips, random bytes, a flip in the first 4 kB: the seal and the
+    superblock) come last and are not sealed: damage after the file was written, which the seal
+    check must refuse before libhdf5 parses the file.
+    """
     import h5py
 
+    from motionlib.fileio import seal_hdf5
+
     path.write_bytes(data)
-    for _ in range(int(rng.integers(1, 3))):
-        op = int(rng.integers(14))
-        if op < 4:  # byte level
-            b = bytearray(path.read_bytes())
-            if not b:
-                return
-            if op == 0:
-                b = b[: int(rng.integers(len(b)))]
-            elif op == 1:
-                for _ in range(int(rng.integers(1, 17))):
-                    b[int(rng.integers(len(b)))] ^= 1 << int(rng.integers(8))
-            elif op == 2:
-                k = int(rng.integers(len(b)))
-                b[k : k + 64] = bytes(rng.integers(0, 256, min(64, len(b) - k), dtype=np.uint8))
-            else:
-                k = int(rng.integers(min(4096, len(b))))
-                b[k] ^= 1 << int(rng.integers(8))
-            path.write_bytes(bytes(b))
-            continue
+    ops = [int(rng.integers(14)) for _ in range(int(rng.integers(1, 3)))]
+    structural = [op for op in ops if op >= 4]
+    for op in structural:
         try:
             with h5py.File(path, "r+") as f:
                 _mutate_structure(f, op, rng)
         except (OSError, KeyError, RuntimeError, ValueError, TypeError):
-            return  # the file was already broken by an earlier byte mutation, or the operation does not apply
+            pass  # the operation does not apply
+    if structural:
+        seal_hdf5(path)
+    for op in (op for op in ops if op < 4):  # byte level
+        b = bytearray(path.read_bytes())
+        if not b:
+            return
+        if op == 0:
+            b = b[: int(rng.integers(len(b)))]
+        elif op == 1:
+            for _ in range(int(rng.integers(1, 17))):
+                b[int(rng.integers(len(b)))] ^= 1 << int(rng.integers(8))
+        elif op == 2:
+            k = int(rng.integers(len(b)))
+            b[k : k + 64] = bytes(rng.integers(0, 256, min(64, len(b) - k), dtype=np.uint8))
+        else:
+            k = int(rng.integers(min(4096, len(b))))
+            b[k] ^= 1 << int(rng.integers(8))
+        path.write_bytes(bytes(b))
 
 
 def _mutate_structure(f: Any, op: int, rng: np.random.Generator) -> None:
@@ -566,13 +580,12 @@ def _use_script(path: Path) -> Any:
 
 
 def _use_plan(path: Path) -> Any:
-    import h5py
-
+    from motionlib.fileio import open_sealed
     from motionlib.model.embedded import embedded_models
-    from motionlib.planning.trajectory import load_plan
+    from motionlib.planning.trajectory import TRAJECTORY_SCHEMA, load_plan
 
     traj = load_plan(path)
-    with h5py.File(path, "r") as f:
+    with open_sealed(path, TRAJECTORY_SCHEMA) as f:
         crane, _ = embedded_models(f.attrs, str(path))
     crane.fk_batch(traj.q)
     return traj
@@ -659,9 +672,11 @@ def run_cases(reader: Reader, index: int, seed: int, cases: range, workdir: Path
 
 # ====================================================================== isolated runs (benchmark)
 def _child(reader: Reader, index: int, seed: int, start: int, stop: int, workdir: str, current: Any,
-           counts: Any, examples_file: str) -> None:
+           counts: Any, examples_file: str, halt: Any) -> None:
     work = Path(workdir)
     for i in range(start, stop):
+        if halt.value:  # the time budget is spent: stop between two cases
+            break
         current.value = i
         outcome, detail = run_case(reader, reader.make(seed, index, i, work))
         counts[OUTCOMES.index(outcome)] += 1
@@ -672,20 +687,27 @@ def _child(reader: Reader, index: int, seed: int, start: int, stop: int, workdir
 
 
 def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, timeout_s: float,
-                 examples_file: Path) -> tuple[list[int], float]:
-    """Run cases 0..n-1 of ``reader`` in child processes; a child that dies or hangs counts its case and is replaced."""
+                 examples_file: Path, budget_s: float = math.inf) -> tuple[list[int], float]:
+    """Run cases 0..n-1 of ``reader`` in child processes; a child that dies or hangs counts its case and is replaced.
+
+    After ``budget_s`` seconds the child stops after its current case: the counts then cover
+    cases 0..k-1 for some k < n (the table's ``inputs`` column says how many).
+    """
     ctx = multiprocessing.get_context("fork")
     current = ctx.Value("q", 0)
     counts = ctx.Array("q", len(OUTCOMES))
+    halt = ctx.Value("b", 0)
     start, t0 = 0, time.perf_counter()
     while start < n:
         current.value = start
         proc = ctx.Process(target=_child, args=(reader, index, seed, start, n, str(workdir), current, counts,
-                                                str(examples_file)), daemon=True)
+                                                str(examples_file), halt), daemon=True)
         proc.start()
         last, seen = current.value, time.monotonic()
         while proc.is_alive():
             proc.join(0.5)
+            if time.perf_counter() - t0 > budget_s:
+                halt.value = 1
             if current.value != last:
                 last, seen = current.value, time.monotonic()
             elif time.monotonic() - seen > timeout_s:
@@ -693,7 +715,7 @@ def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, t
                 proc.join()
                 break
         failed = current.value
-        if failed >= n:
+        if failed >= n or (halt.value and proc.exitcode == 0):
             break
         outcome = "hang" if proc.exitcode == -9 else "signal"
         counts[OUTCOMES.index(outcome)] += 1
@@ -705,11 +727,11 @@ def run_isolated(reader: Reader, index: int, seed: int, n: int, workdir: Path, t
 
 
 def _run_one(args: tuple) -> tuple[str, list[int], float]:
-    name, index, seed, n, workdir, timeout_s, examples_file, fixtures = args
+    name, index, seed, n, workdir, timeout_s, examples_file, fixtures, budget_s = args
     reader = make_readers(fixtures)[name]
     sub = Path(workdir) / name
     sub.mkdir(exist_ok=True)
-    counts, wall = run_isolated(reader, index, seed, n, sub, timeout_s, Path(examples_file))
+    counts, wall = run_isolated(reader, index, seed, n, sub, timeout_s, Path(examples_file), budget_s)
     return name, counts, wall
 
 
@@ -722,6 +744,8 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds without progress that count as a hang")
     parser.add_argument("--examples", default="fuzz-examples.jsonl", help="file receiving every non-clean outcome")
     parser.add_argument("--reproduce", help="READER:I: write input I of READER to the current directory and read it")
+    parser.add_argument("--budget", type=float, default=math.inf,
+                        help="seconds per reader: stop after it with the inputs done so far (the inputs column)")
     args = parser.parse_args()
     workdir = Path(tempfile.mkdtemp(prefix="motionlib-fuzz-"))
     try:
@@ -738,9 +762,10 @@ def main() -> None:
             return
         examples = Path(args.examples)
         examples.write_text("")
-        jobs = [(n, all_names.index(n), args.seed, args.n, str(workdir), args.timeout, str(examples), fixtures)
-                for n in names]
-        print(f"{args.n} inputs per reader, seed {args.seed}, {args.workers} readers at a time; python "
+        jobs = [(n, all_names.index(n), args.seed, args.n, str(workdir), args.timeout, str(examples), fixtures,
+                 args.budget) for n in names]
+        budget = f" or {args.budget:.0f} s" if math.isfinite(args.budget) else ""
+        print(f"{args.n} inputs per reader{budget}, seed {args.seed}, {args.workers} readers at a time; python "
               f"{sys.version.split()[0]}; non-clean outcomes in {examples}")
         header = f"{'reader':<8}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
         print(header)

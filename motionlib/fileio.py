@@ -1,10 +1,21 @@
-"""File conventions: atomic replacement, JSON for numpy values, and the encoding of HDF5 attributes."""
+"""File conventions: atomic replacement, JSON for numpy values, sealed HDF5 files and the encoding of HDF5 attributes.
+
+Every HDF5 file motionlib writes (plan files, libraries, build checkpoints, run logs) is
+*sealed*: it is created with a 512-byte HDF5 user block, and once the file is closed (still
+under its temporary name) the user block receives a text header naming the format, the
+length and the SHA-256 of the bytes after it (:func:`seal_hdf5`; layout in
+docs/library-format.md, "File seal"). Readers check the seal before libhdf5 parses a byte of
+the file (:func:`open_sealed`): libhdf5 can crash or hang on damaged object headers, so a
+damaged file must be refused before it reaches it.
+"""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -12,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import LibraryFileError, MotionlibError
+from .errors import InputError, LibraryFileError, MotionlibError
 
 
 def json_default(obj: Any) -> Any:
@@ -74,6 +85,199 @@ def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+# ------------------------------------------------------------------ sealed HDF5 files
+#: Size of the HDF5 user block that holds the seal (bytes; libhdf5 allows 512 or a larger power of two).
+SEAL_SIZE = 512
+#: First line of a seal: the seal's own format and version.
+SEAL_MAGIC = b"motionlib-seal 1\n"
+#: The signature that starts an HDF5 superblock (HDF5 file format specification, section II.A).
+HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+_HASH_CHUNK = 1 << 20
+#: Files whose seal was verified in this process: path -> (device, inode, size, mtime, ctime) at verification.
+_verified: dict[str, tuple[int, int, int, int, int]] = {}
+_verified_lock = threading.Lock()
+
+
+def _identity(st: os.stat_result) -> tuple[int, int, int, int, int]:
+    return (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns)
+
+
+def _content_digest(handle: Any, length: int) -> str:
+    """SHA-256 (hex) of ``length`` bytes from the handle's position."""
+    digest = hashlib.sha256()
+    left = length
+    while left > 0:
+        chunk = handle.read(min(_HASH_CHUNK, left))
+        if not chunk:
+            break
+        digest.update(chunk)
+        left -= len(chunk)
+    return digest.hexdigest()
+
+
+def seal_text(kind: str, length: int, sha256: str) -> bytes:
+    """The user block of a sealed file: magic line, ``format``, ``length``, ``sha256`` lines, NUL padding."""
+    text = SEAL_MAGIC + f"format {kind}\nlength {length}\nsha256 {sha256}\n".encode()
+    if len(text) > SEAL_SIZE:
+        raise InputError(f"seal: format name {kind[:40]!r} too long")
+    return text.ljust(SEAL_SIZE, b"\0")
+
+
+def seal_hdf5(path: str | Path, kind: str | None = None) -> None:
+    """Write the seal of the closed HDF5 file ``path`` into its user block.
+
+    Writers call it through :func:`sealed_hdf5_output`. Call it directly after editing a
+    motionlib file on purpose with h5py (``h5py.File(path, "r+")`` keeps the user block):
+    the readers refuse an edited file until it is sealed again.
+
+    Parameters
+    ----------
+    path : str or Path
+        An HDF5 file created with ``userblock_size=SEAL_SIZE`` and closed.
+    kind : str, optional
+        The format name (the root ``schema`` attribute, e.g. ``motionlib.library``);
+        default: the one in the file's present seal.
+
+    Raises
+    ------
+    InputError
+        The file has no user block of :data:`SEAL_SIZE` bytes, or no ``kind`` is given or sealed.
+    """
+    path = Path(path)
+    with open(path, "rb+") as handle:
+        head = handle.read(SEAL_SIZE + len(HDF5_SIGNATURE))
+        if head[SEAL_SIZE:] != HDF5_SIGNATURE:
+            raise InputError(f"{path}: not an HDF5 file with a {SEAL_SIZE}-byte user block: cannot seal it")
+        if kind is None:
+            kind = _parse_seal(head[:SEAL_SIZE], str(path))[0]
+        length = os.fstat(handle.fileno()).st_size - SEAL_SIZE
+        handle.seek(SEAL_SIZE)
+        digest = _content_digest(handle, length)
+        handle.seek(0)
+        handle.write(seal_text(kind, length, digest))
+        handle.flush()
+        os.fsync(handle.fileno())
+
+
+@contextmanager
+def sealed_hdf5_output(path: str | Path, kind: str) -> Iterator[Any]:
+    """Write a sealed HDF5 file atomically: yields an ``h5py.File`` open for writing a temporary file.
+
+    On success the file is closed, sealed (:func:`seal_hdf5`), fsynced and renamed over
+    ``path``; on error the temporary file is removed and an existing ``path`` is untouched.
+    """
+    import h5py
+
+    with atomic_output(path) as tmp:
+        with h5py.File(tmp, "w", userblock_size=SEAL_SIZE) as f:
+            yield f
+        seal_hdf5(tmp, kind)
+
+
+def _parse_seal(block: bytes, where: str) -> tuple[str, int, str]:
+    """Format name, content length and SHA-256 of a seal; :class:`LibraryFileError` if it is not one."""
+    text, _, padding = block.partition(b"\0")
+    lines = text.split(b"\n")
+    ok = (
+        len(block) == SEAL_SIZE and not padding.strip(b"\0") and len(lines) == 5 and lines[4] == b""
+        and lines[0] + b"\n" == SEAL_MAGIC
+    )
+    fields: dict[str, str] = {}
+    if ok:
+        for line in lines[1:4]:
+            key, _, value = line.decode("ascii", "replace").partition(" ")
+            fields[key] = value
+    kind, length, sha = fields.get("format", ""), fields.get("length", ""), fields.get("sha256", "")
+    if not (ok and kind.isprintable() and kind and length.isdigit() and len(length) < 20 and len(sha) == 64
+            and all(c in "0123456789abcdef" for c in sha)):
+        raise LibraryFileError(f"{where}: damaged seal (the {SEAL_SIZE}-byte header before the HDF5 data)")
+    return kind, int(length), sha
+
+
+def verify_sealed(path: str | Path, kinds: str | tuple[str, ...]) -> str:
+    """Check the seal of a motionlib HDF5 file before libhdf5 reads it; returns its format name.
+
+    The check reads the whole file once (SHA-256); a file verified before in this process
+    and not changed since (same inode, size, modification and change times) is not read again.
+
+    Parameters
+    ----------
+    path : str or Path
+    kinds : str or tuple of str
+        The accepted format names (root ``schema`` attributes).
+
+    Raises
+    ------
+    LibraryFileError
+        Missing; not HDF5; an HDF5 file without a seal (written by motionlib 0.1.0 before the
+        seal, or by another program: rebuild, re-plan or re-run it); a damaged seal; another
+        format; truncated or extended; or content that does not match its SHA-256 (damaged
+        after it was written). The message names the file.
+    """
+    path = Path(path)
+    kinds = (kinds,) if isinstance(kinds, str) else kinds
+    where = str(path)
+    if not path_exists(path, file=True):
+        raise LibraryFileError(f"{where}: no such file")
+    try:
+        with open(path, "rb") as handle:
+            st = os.fstat(handle.fileno())
+            kind = _check_seal(handle, st, kinds, where)
+    except LibraryFileError:
+        raise
+    except (OSError, ValueError) as exc:
+        raise LibraryFileError(f"{where}: cannot read ({type(exc).__name__}: {str(exc)[:120]})") from exc
+    return kind
+
+
+def _check_seal(handle: Any, st: os.stat_result, kinds: tuple[str, ...], where: str) -> str:
+    block = handle.read(SEAL_SIZE)
+    if block.startswith(HDF5_SIGNATURE):
+        raise LibraryFileError(
+            f"{where}: an HDF5 file without motionlib's seal (written before motionlib sealed its files, "
+            "or by another program): rebuild the library, re-plan or re-run it with this motionlib "
+            '(docs/library-format.md, "File seal")'
+        )
+    if not block.startswith(SEAL_MAGIC):
+        raise LibraryFileError(f"{where}: not a motionlib HDF5 file (no seal, no HDF5 signature)")
+    kind, length, sha = _parse_seal(block, where)
+    if kind not in kinds:
+        raise LibraryFileError(f"{where}: a {kind[:60]} file, expected {' or '.join(kinds)}")
+    key = os.path.abspath(where)
+    with _verified_lock:
+        if _verified.get(key) == _identity(st):
+            return kind
+    if st.st_size - SEAL_SIZE != length:
+        raise LibraryFileError(
+            f"{where}: truncated or extended: {st.st_size - SEAL_SIZE} bytes after the seal, sealed {length}"
+        )
+    if handle.read(len(HDF5_SIGNATURE)) != HDF5_SIGNATURE:
+        raise LibraryFileError(f"{where}: damaged: no HDF5 signature after the seal")
+    handle.seek(SEAL_SIZE)
+    if _content_digest(handle, length) != sha:
+        raise LibraryFileError(f"{where}: damaged: its content does not match the SHA-256 of its seal")
+    with _verified_lock:
+        _verified[key] = _identity(st)
+    return kind
+
+
+def open_sealed(path: str | Path, kinds: str | tuple[str, ...]) -> Any:
+    """``h5py.File(path, "r")`` of a motionlib HDF5 file whose seal was checked first (:func:`verify_sealed`).
+
+    Raises
+    ------
+    LibraryFileError
+        The seal check fails, or h5py cannot open the file.
+    """
+    import h5py
+
+    verify_sealed(path, kinds)
+    try:
+        return h5py.File(path, "r")
+    except (OSError, ValueError) as exc:
+        raise LibraryFileError(f"{path}: cannot open as HDF5 ({type(exc).__name__}: {str(exc)[:200]})") from exc
 
 
 # ------------------------------------------------------------------ HDF5 attributes

@@ -59,7 +59,7 @@ import h5py
 import numpy as np
 
 from ..errors import InputError, LibraryFileError, PlanningError
-from ..fileio import atomic_output, decode_attr, hdf5_errors, read_array
+from ..fileio import atomic_output, decode_attr, hdf5_errors, open_sealed, read_array, sealed_hdf5_output
 from ..planning.planner import PLANNER_VERSION
 from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
 from ..progress import Progress, make_progress
@@ -248,23 +248,22 @@ def _record(entry: Entry, ok: bool, stage: str, reason: str, plan_time_s: float)
 
 
 def write_part(parts: Path, entry: Entry, outcome: EntryOutcome) -> Path:
-    """Checkpoint one finished entry atomically as ``parts/<entry id>.h5``."""
+    """Checkpoint one finished entry atomically as ``parts/<entry id>.h5``, sealed as ``motionlib.library-part``."""
     path = parts / f"{entry_id(entry.index)}.h5"
-    with atomic_output(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["schema"] = PART_SCHEMA
-            f.attrs["index"] = entry.index
-            f.attrs["key"] = entry.key
-            f.attrs["seed"] = entry.seed
-            f.attrs["status"] = "ok" if outcome.ok else "failed"
-            f.attrs["stage"] = outcome.stage
-            f.attrs["reason"] = outcome.reason
-            f.attrs["plan_time_s"] = outcome.plan_time_s
-            if outcome.ok and outcome.trajectory is not None:
-                write_trajectory(f.create_group("trajectory"), outcome.trajectory)
-                row = f.create_group("row")
-                for key in _ROW_FIELDS:
-                    row[key] = np.asarray(getattr(outcome.row, key), dtype=np.float64)
+    with sealed_hdf5_output(path, PART_SCHEMA) as f:
+        f.attrs["schema"] = PART_SCHEMA
+        f.attrs["index"] = entry.index
+        f.attrs["key"] = entry.key
+        f.attrs["seed"] = entry.seed
+        f.attrs["status"] = "ok" if outcome.ok else "failed"
+        f.attrs["stage"] = outcome.stage
+        f.attrs["reason"] = outcome.reason
+        f.attrs["plan_time_s"] = outcome.plan_time_s
+        if outcome.ok and outcome.trajectory is not None:
+            write_trajectory(f.create_group("trajectory"), outcome.trajectory)
+            row = f.create_group("row")
+            for key in _ROW_FIELDS:
+                row[key] = np.asarray(getattr(outcome.row, key), dtype=np.float64)
     _fsync_dir(parts)
     return path
 
@@ -278,10 +277,7 @@ def _open_part(path: Path, entry: Entry) -> Iterator[tuple[EntryRecord, IndexRow
     LibraryFileError
         The checkpoint is unreadable, damaged or of another entry (the caller discards it).
     """
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise LibraryFileError(f"{path}: unreadable checkpoint ({exc})") from exc
+    f = open_sealed(path, PART_SCHEMA)  # the seal is checked before libhdf5 reads a damaged checkpoint
     with f:
         with hdf5_errors(f"{path}: damaged checkpoint"):
             a = {k: decode_attr(a, f"{path}: attribute {k!r}") for k, a in f.attrs.items()}

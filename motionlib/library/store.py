@@ -23,7 +23,9 @@ A library file is one HDF5 file holding the set Q of pre-planned trajectories of
     index, zero-padded to 6 digits.
 
 :meth:`Library.open` reads the root attributes and the index arrays only;
-entries and trajectories are read on demand. Every read is verified before the data
+entries and trajectories are read on demand. The file is sealed
+(:func:`motionlib.fileio.seal_hdf5`): its seal is checked before libhdf5 reads it, so
+damage after writing is refused before it can crash libhdf5. Every read is verified before the data
 are used: attribute types, dataset dtypes and shapes, finite values, increasing entry
 ids, an entry table consistent with the index; a trajectory must pass
 :func:`~motionlib.planning.trajectory.check_trajectory` against the embedded crane's
@@ -48,7 +50,16 @@ import numpy as np
 
 from ..checks import check_vector, rounded
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors, path_exists, read_array, read_json_attr
+from ..fileio import (
+    decode_attr,
+    encode_attr,
+    hdf5_errors,
+    open_sealed,
+    path_exists,
+    read_array,
+    read_json_attr,
+    sealed_hdf5_output,
+)
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, crane_from_record
 from ..model.kinematics import Crane
 from ..model.scene import Scene
@@ -56,7 +67,8 @@ from ..planning.trajectory import Trajectory, check_trajectory, read_trajectory,
 from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex, SelectionResult, approach_samples
 
 LIBRARY_SCHEMA = "motionlib.library"
-LIBRARY_VERSION = 1
+#: 2: the file is sealed (:func:`motionlib.fileio.seal_hdf5`; unsealed libraries are refused: rebuild them).
+LIBRARY_VERSION = 2
 
 #: Index arrays: name -> shape after the row axis (``k`` = number of approach points).
 INDEX_FIELDS: dict[str, tuple[str, ...]] = {
@@ -272,8 +284,7 @@ class LibraryWriter:
 
     def __enter__(self) -> LibraryWriter:
         self._stack = ExitStack()
-        tmp = self._stack.enter_context(atomic_output(self.path))
-        self._file = self._stack.enter_context(h5py.File(tmp, "w"))
+        self._file = self._stack.enter_context(sealed_hdf5_output(self.path, LIBRARY_SCHEMA))
         self._file.create_group("trajectories")
         return self
 
@@ -463,7 +474,7 @@ class Library:
         path = Path(path)
         if not path_exists(path, file=True):
             raise LibraryFileError(f"{path}: no such library file")
-        with hdf5_errors(f"{path}: not a readable library (truncated or corrupt HDF5)"), h5py.File(path, "r") as f:
+        with open_sealed(path, LIBRARY_SCHEMA) as f, hdf5_errors(f"{path}: not a readable library (corrupt HDF5)"):
             attrs = _check_header(path, f)
             arrays = _read_index(path, f, attrs["n_ok"], attrs["n_entries"])
         lib = cls(path, attrs, arrays)
@@ -527,7 +538,7 @@ class Library:
         if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < len(self):
             raise InputError(f"trajectory: expected a row in [0, {len(self) - 1}], got {i!r}")
         name = f"trajectories/{entry_id(self.entry[i])}"
-        with hdf5_errors(f"{self.path}: cannot read /{name}"), h5py.File(self.path, "r") as f:
+        with hdf5_errors(f"{self.path}: cannot read /{name}"), open_sealed(self.path, LIBRARY_SCHEMA) as f:
             group = f.get(name)
             if not isinstance(group, h5py.Group):
                 raise LibraryFileError(f"{self.path}: missing group /{name}")
@@ -553,7 +564,7 @@ class Library:
     @functools.cached_property
     def entries(self) -> tuple[EntryRecord, ...]:
         """Every entry with its status, stage and reason, in entry order."""
-        with hdf5_errors(f"{self.path}: cannot read /entries"), h5py.File(self.path, "r") as f:
+        with hdf5_errors(f"{self.path}: cannot read /entries"), open_sealed(self.path, LIBRARY_SCHEMA) as f:
             cols = _read_entries(self.path, f, self.n_entries, self.entry)
         return tuple(
             EntryRecord(
@@ -619,7 +630,7 @@ class Library:
         """A JSON record of the root: ``crane_model``, ``scene_model``, ``spec`` or ``build``."""
         if key not in ("crane_model", "scene_model", "spec", "build"):
             raise InputError(f"metadata: expected crane_model, scene_model, spec or build, got {key!r}")
-        with hdf5_errors(f"{self.path}: cannot read attribute {key!r}"), h5py.File(self.path, "r") as f:
+        with hdf5_errors(f"{self.path}: cannot read attribute {key!r}"), open_sealed(self.path, LIBRARY_SCHEMA) as f:
             return read_json_attr(f.attrs, key, f"{self.path}: corrupt library")
 
     @functools.cached_property

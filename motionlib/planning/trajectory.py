@@ -25,15 +25,16 @@ import numpy as np
 
 from ..checks import rounded
 from ..errors import LibraryFileError
-from ..fileio import atomic_output, decode_attr, encode_attr, hdf5_errors, read_array
+from ..fileio import decode_attr, encode_attr, hdf5_errors, open_sealed, read_array, sealed_hdf5_output
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models, embedding_attrs
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 
 TRAJECTORY_SCHEMA = "motionlib.trajectory"
 #: 2 added ``path_source``, ``baseline_jointspace_s`` and ``lower_bound_s``; version-1 files read with
-#: those as ``tip-rrt`` (the only source then) and NaN (not computed).
-TRAJECTORY_VERSION = 2
+#: those as ``tip-rrt`` (the only source then) and NaN (not computed). 3: plan files are sealed
+#: (:func:`motionlib.fileio.seal_hdf5`; unsealed plan files are refused), the group's content is that of 2.
+TRAJECTORY_VERSION = 3
 
 
 @dataclass(frozen=True)
@@ -402,15 +403,14 @@ def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) ->
     Parameters
     ----------
     path : str or Path
-        Output ``.h5`` file, written atomically.
+        Output ``.h5`` file, written atomically and sealed (format ``motionlib.trajectory``).
     traj : Trajectory
     crane, scene : Crane, Scene
         Embedded as the root attributes ``crane_model`` and ``scene_model`` (:mod:`motionlib.model.embedded`).
     """
-    with atomic_output(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            write_trajectory(f, traj)
-            f.attrs.update(embedding_attrs(crane, scene))
+    with sealed_hdf5_output(path, TRAJECTORY_SCHEMA) as f:
+        write_trajectory(f, traj)
+        f.attrs.update(embedding_attrs(crane, scene))
 
 
 def load_plan(path: str | Path) -> Trajectory:
@@ -419,9 +419,10 @@ def load_plan(path: str | Path) -> Trajectory:
     Raises
     ------
     LibraryFileError, ModelFileError
-        The file is missing, damaged or not a plan file, or its data fail :func:`check_trajectory`.
+        The file is missing, unsealed, damaged (its seal is checked before libhdf5 reads it) or not
+        a plan file, or its data fail :func:`check_trajectory`.
     """
-    with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
+    with open_sealed(path, TRAJECTORY_SCHEMA) as f, hdf5_errors(f"{path}: not a readable plan file"):
         crane, _ = embedded_models(f.attrs, str(path))
         traj = read_trajectory(f)
     check_trajectory(traj, str(path), crane)

@@ -218,10 +218,10 @@ class ScriptedStick:
         ]
         if not lines:
             raise ModelFileError(f"{path}: empty stick script")
-        reader = csv.reader([ln for _, ln in lines])
         lineno = lines[0][0]
         try:
-            header = [h.strip() for h in next(reader)]
+            # One line at a time: a quote left open must not run on into the next line (strict: an error).
+            header = [h.strip() for h in next(csv.reader([lines[0][1]], strict=True))]
             required = list(SCRIPT_COLUMNS[:6])
             if header[:6] != required or header[6:] not in ([], ["dropout"]):
                 raise ModelFileError(
@@ -229,7 +229,8 @@ class ScriptedStick:
                     f"got {short(','.join(header))}"
                 )
             rows = []
-            for (lineno, _), fields in zip(lines[1:], reader, strict=True):
+            for lineno, line in lines[1:]:
+                fields = next(csv.reader([line], strict=True))
                 if len(fields) != len(header):
                     raise ModelFileError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)}")
                 try:

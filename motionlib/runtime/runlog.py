@@ -20,11 +20,12 @@ import h5py
 import numpy as np
 
 from ..errors import LibraryFileError
-from ..fileio import atomic_output, decode_attr, hdf5_errors, json_default, parse_json, read_array
+from ..fileio import decode_attr, hdf5_errors, json_default, open_sealed, parse_json, read_array, sealed_hdf5_output
 from ..model.kinematics import Crane
 
 RUNLOG_SCHEMA = "motionlib.runlog"
-RUNLOG_VERSION = 1
+#: 2: the file is sealed (:func:`motionlib.fileio.seal_hdf5`; unsealed run logs are refused).
+RUNLOG_VERSION = 2
 _FD_EPS = 1e-6
 
 #: Columns of a row, in order (see :meth:`RunLog.append`).
@@ -130,7 +131,7 @@ def tip_motion(crane: Crane, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray,
 
 
 def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str, Any] | None = None) -> Path:
-    """Write a run log to HDF5 atomically (layout in docs/runtime.md).
+    """Write a run log to HDF5 atomically, sealed (layout in docs/runtime.md; :func:`motionlib.fileio.seal_hdf5`).
 
     Parameters
     ----------
@@ -147,28 +148,27 @@ def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str,
     """
     path = Path(path)
     arrays = log.arrays(crane)
-    with atomic_output(path) as tmp:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["schema"] = RUNLOG_SCHEMA
-            f.attrs["schema_version"] = RUNLOG_VERSION
-            f.attrs["rate_hz"] = _rate(arrays["t"])
-            f.attrs["crane"] = crane.name
-            f.attrs["columns"] = json.dumps(list(arrays))
-            for key, value in log.attrs.items():
-                f.attrs[key] = _attr(value)
-            if summary is not None:
-                f.attrs["summary"] = json.dumps(summary, default=json_default)
-            for key, value in arrays.items():
-                big = value.size >= 256
-                f.create_dataset(key, data=value, compression="gzip" if big else None, shuffle=big,
-                                 chunks=True if big else None)
-            ev = f.create_group("events")
-            ev.create_dataset("t", data=np.array([float(e.t) for e in log.events], dtype=np.float64))
-            str_type = h5py.string_dtype()
-            ev.create_dataset("name", data=np.array([e.name for e in log.events], dtype=object), dtype=str_type)
-            ev.create_dataset(
-                "detail", data=np.array([getattr(e, "detail", "") for e in log.events], dtype=object), dtype=str_type
-            )
+    with sealed_hdf5_output(path, RUNLOG_SCHEMA) as f:
+        f.attrs["schema"] = RUNLOG_SCHEMA
+        f.attrs["schema_version"] = RUNLOG_VERSION
+        f.attrs["rate_hz"] = _rate(arrays["t"])
+        f.attrs["crane"] = crane.name
+        f.attrs["columns"] = json.dumps(list(arrays))
+        for key, value in log.attrs.items():
+            f.attrs[key] = _attr(value)
+        if summary is not None:
+            f.attrs["summary"] = json.dumps(summary, default=json_default)
+        for key, value in arrays.items():
+            big = value.size >= 256
+            f.create_dataset(key, data=value, compression="gzip" if big else None, shuffle=big,
+                             chunks=True if big else None)
+        ev = f.create_group("events")
+        ev.create_dataset("t", data=np.array([float(e.t) for e in log.events], dtype=np.float64))
+        str_type = h5py.string_dtype()
+        ev.create_dataset("name", data=np.array([e.name for e in log.events], dtype=object), dtype=str_type)
+        ev.create_dataset(
+            "detail", data=np.array([getattr(e, "detail", "") for e in log.events], dtype=object), dtype=str_type
+        )
     return path
 
 
@@ -201,15 +201,13 @@ def read_runlog(path: str | Path) -> dict[str, Any]:
     Raises
     ------
     LibraryFileError
-        Not an HDF5 file, not a motionlib run log, a newer schema version, or damaged:
+        Not an HDF5 file, not a sealed motionlib run log (the seal is checked before libhdf5
+        reads the file: damage after writing is found there), a newer schema version, or damaged:
         a dataset missing, of the wrong dtype or shape, ``t`` not finite and increasing,
         ``q`` or ``qd_cmd`` not finite, events or attributes unreadable. The message names
         the file and the object.
     """
-    try:
-        f = h5py.File(path, "r")
-    except OSError as exc:
-        raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
+    f = open_sealed(path, RUNLOG_SCHEMA)
     with f, hdf5_errors(f"{path}: damaged run log"):
         if decode_attr(f.attrs.get("schema"), f"{path}: attribute 'schema'") != RUNLOG_SCHEMA:
             raise LibraryFileError(f"{path}: not a motionlib run log (schema attribute missing or wrong)")

@@ -38,14 +38,14 @@ import plotly.graph_objects as go
 
 from ..checks import check_scalar, short
 from ..errors import InputError, LibraryFileError
-from ..fileio import atomic_output, decode_attr, hdf5_errors, path_exists, read_array
-from ..library.store import Library, entry_id
+from ..fileio import atomic_output, hdf5_errors, open_sealed, path_exists, read_array, verify_sealed
+from ..library.store import LIBRARY_SCHEMA, Library, entry_id
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models
 from ..model.kinematics import Crane
 from ..model.scene import Scene
-from ..planning.trajectory import MAX_SAMPLES, Trajectory, check_trajectory, read_trajectory
+from ..planning.trajectory import MAX_SAMPLES, TRAJECTORY_SCHEMA, Trajectory, check_trajectory, read_trajectory
 from ..runtime.control_types import Authority
-from ..runtime.runlog import read_runlog
+from ..runtime.runlog import RUNLOG_SCHEMA, read_runlog
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
 
 # Colours (tests/test_viewer.py finds the arm in screenshots by ARM_COLOUR's hue).
@@ -425,7 +425,7 @@ def _tip_trace(tip: np.ndarray) -> go.Scatter3d:
 
 def trajectory_view(path: Path, options: ViewOptions) -> View:
     """Kind ``motionlib.trajectory``: a plan file, animated."""
-    with hdf5_errors(f"{path}: not a readable plan file"), h5py.File(path, "r") as f:
+    with open_sealed(path, TRAJECTORY_SCHEMA) as f, hdf5_errors(f"{path}: not a readable plan file"):
         crane, scene = embedded_models(f.attrs, str(path))
         traj = read_trajectory(f)
     check_trajectory(traj, str(path), crane)
@@ -523,7 +523,7 @@ def library_view(path: Path, options: ViewOptions) -> View:
     if len(library) == 0:
         raise InputError(f"{path}: the library has no successful entries to show")
     crane, scene = library.crane, library.scene
-    with hdf5_errors(f"{path}: cannot read the library's paths"), h5py.File(path, "r") as f:
+    with open_sealed(path, LIBRARY_SCHEMA) as f, hdf5_errors(f"{path}: cannot read the library's paths"):
         # Every path in one pass over the open file (layout: docs/library-format.md).
         paths = [_tip_path(f, f"/trajectories/{entry_id(e)}/path/tip", str(path)) for e in library.entry]
     fig = library_figure(library, crane, scene, paths, options)
@@ -640,7 +640,7 @@ def runlog_view(path: Path, options: ViewOptions) -> View:
     """Kind ``motionlib.runlog``: a shared-control run, animated (crane and scene from its library)."""
     log = read_runlog(path)
     attrs = log["attrs"]
-    with hdf5_errors(f"{path}: not a readable run log"), h5py.File(path, "r") as f:
+    with open_sealed(path, RUNLOG_SCHEMA) as f, hdf5_errors(f"{path}: not a readable run log"):
         has_models = CRANE_ATTR in f.attrs and SCENE_ATTR in f.attrs
         embedded = embedded_models(f.attrs, str(path)) if has_models else None
     try:
@@ -674,26 +674,20 @@ KINDS: dict[str, Callable[[Path, ViewOptions], View]] = {
 
 
 def file_kind(path: str | Path) -> str:
-    """The root ``schema`` attribute of a motionlib HDF5 file, checked against :data:`KINDS`.
+    """The format of a motionlib HDF5 file, from its seal (checked: :func:`motionlib.fileio.verify_sealed`).
+
+    The seal names the format (the root ``schema`` attribute the writer wrote); each view
+    checks that attribute again when it reads the file.
 
     Raises
     ------
     LibraryFileError
-        Missing, not HDF5, or of a schema without a view.
+        Missing, not HDF5, unsealed or damaged, or of a format without a view.
     """
     path = Path(path)
     if not path_exists(path, file=True):
         raise LibraryFileError(f"{path}: no such file")
-    try:
-        with h5py.File(path, "r") as f:
-            schema = decode_attr(f.attrs.get("schema"), f"{path}: attribute 'schema'")
-    except OSError as exc:
-        raise LibraryFileError(f"{path}: cannot open as HDF5 ({exc})") from exc
-    except (KeyError, RuntimeError, ValueError, TypeError) as exc:
-        raise LibraryFileError(f"{path}: damaged HDF5 attribute 'schema' ({type(exc).__name__})") from exc
-    if not isinstance(schema, str) or schema not in KINDS:
-        raise LibraryFileError(f"{path}: no view for schema {schema!r:.60}: expected one of {', '.join(sorted(KINDS))}")
-    return schema
+    return verify_sealed(path, tuple(sorted(KINDS)))
 
 
 def page_html(view: View, title: str) -> str:

@@ -27,6 +27,7 @@ from motionlib_cli.main import cli
 
 from motionlib import Library
 from motionlib.errors import InputError, LibraryFileError
+from motionlib.fileio import SEAL_SIZE
 from motionlib.library import build as build_module
 from motionlib.library.build import build_library, library_is_current, parts_dir_for
 from motionlib.library.spec import LibrarySpec
@@ -174,6 +175,57 @@ def test_reuse_only_when_built_from_the_same_spec(reference, tiny_spec, tmp_path
     r = CliRunner().invoke(cli, ["build", str(tiny_spec), "-o", str(out), "--reuse"])
     assert r.exit_code == 0 and "up to date" in r.output
     assert content_digest(out) == before
+
+
+def test_reuse_rebuilds_an_unsealed_or_damaged_library(reference, tiny_spec, tmp_path):
+    """`build --reuse`: a library without a valid seal (older motionlib, damaged) is out of date, not an error."""
+    spec = LibrarySpec.load(tiny_spec)
+    data = reference[0].read_bytes()
+    unsealed = tmp_path / "unsealed.h5"
+    unsealed.write_bytes(data[SEAL_SIZE:])  # the same HDF5 content without its seal
+    current, why = library_is_current(spec, unsealed)
+    assert not current and "without motionlib's seal" in why and "rebuild" in why
+    damaged = tmp_path / "damaged.h5"
+    damaged.write_bytes(data[:-1])
+    current, why = library_is_current(spec, damaged)
+    assert not current and "truncated or extended" in why
+
+
+@pytest.mark.slow
+def test_resume_discards_damaged_and_unsealed_checkpoints(reference, tiny_spec, tmp_path):
+    """Checkpoints are sealed: a damaged or unsealed one is discarded by --resume and planned again."""
+    out = tmp_path / "lib.h5"
+    parts = parts_dir_for(out)
+    cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out)]
+    with open(tmp_path / "first.log", "w") as log:
+        proc = subprocess.Popen([*cmd, "--workers", "1"], stdout=log, stderr=log, start_new_session=True)
+        try:
+            deadline = time.monotonic() + 120
+            while _count_parts(parts) < 3:
+                assert proc.poll() is None, "the build ended before it could be killed"
+                assert time.monotonic() < deadline, "no checkpoints within 120 s"
+                time.sleep(0.01)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait(timeout=30)
+    checkpoints = sorted(parts.glob("[0-9]*.h5"))
+    finished = len(checkpoints)
+    damaged, unsealed = checkpoints[0], checkpoints[1]
+    data = bytearray(damaged.read_bytes())
+    data[len(data) // 2] ^= 0x10
+    damaged.write_bytes(bytes(data))
+    unsealed.write_bytes(unsealed.read_bytes()[SEAL_SIZE:])
+    resumed = subprocess.run([*cmd, "--resume", "--workers", "2"], capture_output=True, text=True, timeout=300)
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"discarding checkpoint: {damaged}: damaged" in resumed.stderr, resumed.stderr
+    assert f"discarding checkpoint: {unsealed}: an HDF5 file without motionlib's seal" in resumed.stderr
+    assert f"{N_ENTRIES - finished + 2} planned in this run" in resumed.stdout, resumed.stdout
+    # Content identity after a resume is test_kill_and_resume_gives_the_same_library's; here: complete and readable.
+    lib, ref = Library.open(out), Library.open(reference[0])
+    assert [e.status for e in lib.entries] == [e.status for e in ref.entries] and lib.n_entries == N_ENTRIES
+    for i in range(len(lib)):
+        lib.trajectory(i)
 
 
 def test_resume_refuses_checkpoints_of_another_spec(tiny_spec, tmp_path):

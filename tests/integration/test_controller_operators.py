@@ -84,6 +84,9 @@ def test_script_dropout_makes_the_controller_stop(tmp_path: Path, lab):
         ("t,left_x,left_y,right_x,right_y,abort\n0,0,0,0,0,0\n0,0,0,0,0,0\n", "strictly increasing"),
         ("t,left_x,left_y,right_x,right_y,abort\n0,0,0,0,0,2\n", "abort must be 0 or 1"),
         ("# only a comment\n", "empty"),
+        # a quote left open (benchmarks/fuzz.py, seed 0, script input 799852: a raw ValueError before)
+        ('t,left_x,left_y,right_x,right_y,abort,dropout\n# a comment\n0.0,0,0,0,0,0,"0\n0.', ":3: not CSV"),
+        ('t,left_x,left_y,right_x,right_y,abort\n0,0,0,0,0,"0\n1,0,0,0,0,0"\n', ":2: not CSV"),
     ],
 )
 def test_script_errors_name_file_and_line(tmp_path: Path, text: str, where: str):

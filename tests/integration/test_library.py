@@ -19,6 +19,7 @@ from motionlib_cli.main import cli
 
 from motionlib import Library
 from motionlib.errors import InputError, LibraryFileError
+from motionlib.fileio import seal_hdf5, sealed_hdf5_output
 from motionlib.library.selection import DEFAULT_START_WEIGHTS
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter, entry_id
 from motionlib.model.kinematics import Crane
@@ -158,7 +159,7 @@ def test_layout_is_plain_hdf5(synthetic):
     path, written = synthetic
     crane = Crane.load("lab")
     with h5py.File(path, "r") as f:
-        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 1
+        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 2
         assert json.loads(f.attrs["crane_model"][5:]) == json.loads(json.dumps(crane.model.to_dict()))
         assert json.loads(f.attrs["scene_model"][5:])["name"] == "log-loading"
         assert f.attrs["crane_digest"] == crane.model.digest
@@ -315,8 +316,11 @@ def _truncated(src: Path, dst: Path) -> None:
     dst.write_bytes(data[: len(data) // 2])
 
 
-def _corrupted(src: Path, dst: Path) -> None:
-    shutil.copy(src, dst)
+def _extended(src: Path, dst: Path) -> None:
+    dst.write_bytes(src.read_bytes() + b"\0" * 512)
+
+
+def _corrupt_chunk(dst: Path) -> None:
     with h5py.File(dst, "r") as f:
         offset = f["index/duration_s"].id.get_chunk_info(0).byte_offset
     with open(dst, "r+b") as handle:
@@ -324,12 +328,48 @@ def _corrupted(src: Path, dst: Path) -> None:
         handle.write(b"\x13\x37\x13\x37")
 
 
+def _corrupted(src: Path, dst: Path) -> None:
+    shutil.copy(src, dst)
+    _corrupt_chunk(dst)
+
+
+def _corrupted_resealed(src: Path, dst: Path) -> None:
+    """Damage under a valid seal (the file was damaged before it was sealed): the Fletcher-32 checksum finds it."""
+    _corrupted(src, dst)
+    seal_hdf5(dst)
+
+
+def _seal_altered(src: Path, dst: Path) -> None:
+    data = bytearray(src.read_bytes())
+    data[data.index(b"sha256 ") + 3] ^= 0x20  # "sha256" -> "shA256"
+    dst.write_bytes(bytes(data))
+
+
+def _seal_length_altered(src: Path, dst: Path) -> None:
+    data = bytearray(src.read_bytes())
+    k = data.index(b"length ") + len(b"length ")
+    data[k] = ord("9") if data[k] != ord("9") else ord("1")
+    dst.write_bytes(bytes(data))
+
+
 def _not_hdf5(src: Path, dst: Path) -> None:
     dst.write_text("name: not a library\n")
 
 
-def _other_hdf5(src: Path, dst: Path) -> None:
+def _unsealed_hdf5(src: Path, dst: Path) -> None:
     with h5py.File(dst, "w") as f:
+        f["q"] = np.zeros((3, 4))
+        f.attrs["schema"] = "motionlib.library"
+
+
+def _other_format(src: Path, dst: Path) -> None:
+    with sealed_hdf5_output(dst, "motionlib.trajectory") as f:
+        f["q"] = np.zeros((3, 4))
+        f.attrs["schema"] = "motionlib.trajectory"
+
+
+def _other_schema(src: Path, dst: Path) -> None:
+    with sealed_hdf5_output(dst, "motionlib.library") as f:
         f["q"] = np.zeros((3, 4))
         f.attrs["schema"] = "motionlib.trajectory"
 
@@ -337,22 +377,37 @@ def _other_hdf5(src: Path, dst: Path) -> None:
 def _newer(src: Path, dst: Path) -> None:
     shutil.copy(src, dst)
     with h5py.File(dst, "r+") as f:
-        f.attrs["schema_version"] = 2
+        f.attrs["schema_version"] = 3
+    seal_hdf5(dst)
 
 
 def _missing_index(src: Path, dst: Path) -> None:
     shutil.copy(src, dst)
     with h5py.File(dst, "r+") as f:
         del f["index/end_p"]
+    seal_hdf5(dst)
+
+
+def _edited_not_resealed(src: Path, dst: Path) -> None:
+    shutil.copy(src, dst)
+    with h5py.File(dst, "r+") as f:
+        del f["index/end_p"]
 
 
 BAD_FILES = [
-    (_truncated, r"truncated or corrupt"),
-    (_corrupted, r"truncated or corrupt"),
-    (_not_hdf5, r"truncated or corrupt"),
-    (_other_hdf5, r"not a motionlib library \(schema 'motionlib.trajectory'"),
-    (_newer, r"schema version 2 is newer than this motionlib reads \(1\)"),
+    (_truncated, r"truncated or extended: \d+ bytes after the seal, sealed \d+"),
+    (_extended, r"truncated or extended"),
+    (_corrupted, r"damaged: its content does not match the SHA-256 of its seal"),
+    (_corrupted_resealed, r"not a readable library \(corrupt HDF5\)"),
+    (_seal_altered, r"damaged seal"),
+    (_seal_length_altered, r"truncated or extended"),
+    (_not_hdf5, r"not a motionlib HDF5 file \(no seal, no HDF5 signature\)"),
+    (_unsealed_hdf5, r"an HDF5 file without motionlib's seal .*rebuild the library"),
+    (_other_format, r"a motionlib.trajectory file, expected motionlib.library"),
+    (_other_schema, r"not a motionlib library \(schema 'motionlib.trajectory'"),
+    (_newer, r"schema version 3 is newer than this motionlib reads \(2\)"),
     (_missing_index, r"/index/end_p is missing"),
+    (_edited_not_resealed, r"does not match the SHA-256 of its seal"),
 ]
 
 

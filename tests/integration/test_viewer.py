@@ -31,6 +31,7 @@ from PIL import Image
 from playwright.sync_api import sync_playwright
 
 from motionlib.errors import LibraryFileError
+from motionlib.fileio import seal_hdf5, sealed_hdf5_output
 from motionlib.library.store import Library
 from motionlib.model.embedded import embedded_models
 from motionlib.model.kinematics import Crane
@@ -222,10 +223,15 @@ def test_view_cli_writes_a_self_contained_page(plan_file, tmp_path):
 
 def test_view_errors(tmp_path):
     not_motionlib = tmp_path / "x.h5"
-    with h5py.File(not_motionlib, "w") as f:
+    with sealed_hdf5_output(not_motionlib, "something.else") as f:
         f.attrs["schema"] = "something.else"
-    with pytest.raises(LibraryFileError, match="no view for schema 'something.else'"):
+    with pytest.raises(LibraryFileError, match="a something.else file, expected motionlib.library or "):
         file_kind(not_motionlib)
+    unsealed = tmp_path / "unsealed.h5"
+    with h5py.File(unsealed, "w") as f:
+        f.attrs["schema"] = "motionlib.trajectory"
+    with pytest.raises(LibraryFileError, match="an HDF5 file without motionlib's seal"):
+        file_kind(unsealed)
     (tmp_path / "text.h5").write_text("not hdf5")
     for path in (tmp_path / "text.h5", tmp_path / "missing.h5"):
         result = CliRunner().invoke(cli, ["view", str(path)])
@@ -389,6 +395,7 @@ def test_runlog_view(runlog_file, library_file, tmp_path):
     shutil.copy(runlog_file, moved)
     with h5py.File(moved, "a") as f:
         f.attrs["library"] = "no/such/library.h5"
+    seal_hdf5(moved)  # edited on purpose: sealed again
     failed = CliRunner().invoke(cli, ["view", str(moved), "-o", str(tmp_path / "x.html")])
     assert failed.exit_code == 1 and "was not found (give it with --library)" in failed.output
     again = CliRunner().invoke(
