@@ -34,12 +34,16 @@ from .output import emit_json
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--no-swing-damping", is_flag=True,
               help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
+@click.option("--stick-mrf", metavar="NAME", help="M4-M6: the stick moves this point (tip, grapple, log_centre, "
+              "log_end or a scene frame; 001 eq. 1); with a stick script or the passive operator.")
+@click.option("--stick-crf", metavar="NAME", help="M4-M6: the stick's axes along this frame's x, y, z (base, slew or a "
+              "scene view frame) instead of the cylindrical mapping.")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
     library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    log_path, as_json, plot_dir,
+    stick_mrf, stick_crf, log_path, as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import ExecuteOptions, Library, execute
@@ -53,7 +57,8 @@ def execute(
     row = int(selection.indices[0])
     controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
-                             sim=SimParams(noise_frac=noise), controller=controller)
+                             sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
+                             stick_crf=stick_crf)
     entry = int(lib.entry[row])
     run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
                   start_q=current, options=options,

@@ -27,10 +27,11 @@ from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
 from .control_types import ControllerParams, Mode
 from .controller import SharedController
+from .frames_source import stick_in_frames
 from .loop import LoopOptions, LoopResult, run_closed_loop
 from .metrics import RunSummary, run_summary
 from .mixer import MixerParams, ObstacleGuard
-from .operators import Operator, make_operator
+from .operators import Operator, make_operator, operator_kind
 from .plant import SimParams, SimulatedCrane
 from .runlog import RunLog, write_runlog
 from .tracker import TrackerParams
@@ -54,6 +55,12 @@ class ExecuteOptions:
         Controller parameters; the defaults are documented in docs/runtime.md.
     loop : LoopOptions
         When the run counts as settled (its ``time_limit_s`` is replaced by ``time_limit_s``).
+    stick_mrf, stick_crf : str or None
+        Cartesian modes (M4-M6): the operator's stick moves this MRF (a point of the grapple or
+        the log), its axes along this CRF (001 section 2, eq. 1;
+        :func:`~motionlib.runtime.frames_source.stick_in_frames`). None, None: the tip, with the
+        cylindrical mapping in the base frame. The model operators aim the tip, so other frames
+        take a stick script or the passive operator.
     """
 
     seed: int = 0
@@ -64,6 +71,8 @@ class ExecuteOptions:
     mixer: MixerParams = field(default_factory=MixerParams)
     tracker: TrackerParams = field(default_factory=TrackerParams)
     loop: LoopOptions = field(default_factory=LoopOptions)
+    stick_mrf: str | None = None
+    stick_crf: str | None = None
 
     def __post_init__(self) -> None:
         check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
@@ -155,7 +164,14 @@ def prepare_run(
     """
     opts = options or ExecuteOptions()
     guard = ObstacleGuard(CollisionChecker(crane, scene), loaded=loaded) if opts.obstacle_guard else None
-    controller = SharedController(crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard)
+    joystick = None
+    if opts.stick_mrf is not None or opts.stick_crf is not None:
+        if Mode.parse(mode).joint_operation:
+            raise InputError("stick MRF/CRF: they apply to the Cartesian modes M4-M6")
+        joystick = stick_in_frames(crane, scene, opts.mixer.v_operator_max_m_s, opts.stick_mrf, opts.stick_crf)
+    controller = SharedController(
+        crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard, joystick=joystick
+    )
     sim = SimulatedCrane(crane, start_q, replace(opts.sim, seed=opts.seed), rotator0=rotator0)
     return controller, sim
 
@@ -222,6 +238,8 @@ def execute(
     if trajectory is not None:
         controller.start_motion(trajectory)
     if isinstance(operator, str | Path):
+        if operator_kind(str(operator)) == "preset" and (opts.stick_mrf is not None or opts.stick_crf is not None):
+            raise InputError("operator: the model operators aim the tip; with a stick MRF/CRF give a stick script")
         via = trajectory.waypoints[1:-1] if trajectory is not None else None
         op: Operator = make_operator(str(operator), target_p, mode, controller.joystick, crane, seed=opts.seed, via=via)
     else:

@@ -23,15 +23,19 @@ import math
 from ..errors import InputError
 from ..model.frames import (
     BASE_CRF,
+    SLEW_CRF,
     CommandFrame,
     PointFrame,
     mrf_jacobian,
     mrf_position,
     rotate,
     rotate_back,
+    standard_mrfs,
     tip_rate_for,
 )
-from .sources import RateSource, StepContext, Vec3, Vec4
+from ..model.kinematics import Crane
+from ..model.scene import Scene
+from .sources import CartesianJoystick, RateSource, StepContext, Vec3, Vec4
 
 
 class FrameSource(RateSource):
@@ -113,3 +117,42 @@ class FrameSource(RateSource):
 
     def reset(self) -> None:
         self.inner.reset()
+
+
+def stick_in_frames(
+    crane: Crane, scene: Scene, speed_m_s: float, mrf: str | None = None, crf: str | None = None
+) -> FrameSource:
+    """The operator's Cartesian joystick moving the named MRF, its axes along the named CRF.
+
+    Parameters
+    ----------
+    crane, scene : Crane, Scene
+        MRF names: the crane's own (``tip``, ``grapple``, ``log_centre``, ``log_end``,
+        :func:`~motionlib.model.frames.standard_mrfs`) and the scene's point frames; CRF names:
+        ``base``, ``slew`` and the scene's view frames.
+    speed_m_s : float
+        MRF speed (m/s) at full deflection.
+    mrf : str, optional
+        Default ``tip``.
+    crf : str, optional
+        Default: the stick's cylindrical mapping (sideways, radial, vertical) in the base frame;
+        a CRF maps the stick axes to its x, y and z (``left_x``, ``left_y``, ``right_y``).
+
+    Raises
+    ------
+    InputError
+        Unknown name, or a name of the wrong kind of frame.
+    """
+    points: dict[str, PointFrame | CommandFrame] = {**standard_mrfs(crane.model), **scene.frames}
+    crfs: dict[str, PointFrame | CommandFrame] = {"base": BASE_CRF, "slew": SLEW_CRF, **scene.frames}
+    mrf_frame = points.get(mrf or "tip")
+    if not isinstance(mrf_frame, PointFrame):
+        names = sorted(k for k, v in points.items() if isinstance(v, PointFrame))
+        raise InputError(f"stick MRF: expected one of {', '.join(names)}, got {mrf!r}")
+    if crf is None:
+        return FrameSource(CartesianJoystick((speed_m_s,) * 3), mrf_frame, BASE_CRF)
+    crf_frame = crfs.get(crf)
+    if not isinstance(crf_frame, CommandFrame):
+        names = sorted(k for k, v in crfs.items() if isinstance(v, CommandFrame))
+        raise InputError(f"stick CRF: expected one of {', '.join(names)}, got {crf!r}")
+    return FrameSource(CartesianJoystick((speed_m_s,) * 3, frame="base"), mrf_frame, crf_frame)
