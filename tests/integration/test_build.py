@@ -114,16 +114,13 @@ def _count_parts(parts: Path) -> int:
     return len(list(parts.glob("[0-9]*.h5"))) if parts.exists() else 0
 
 
-@pytest.mark.slow
-def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
-    out = tmp_path / "killed.h5"
-    parts = parts_dir_for(out)
-    cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out)]
-    with open(tmp_path / "first.log", "w") as log:
+def _kill_build_after(cmd: list[str], parts: Path, n_checkpoints: int, log_path: Path) -> None:
+    """Run ``cmd`` with one worker and SIGKILL its process group once ``n_checkpoints`` entries are checkpointed."""
+    with open(log_path, "w") as log:
         proc = subprocess.Popen([*cmd, "--workers", "1"], stdout=log, stderr=log, start_new_session=True)
         try:
             deadline = time.monotonic() + 120
-            while _count_parts(parts) < 2:
+            while _count_parts(parts) < n_checkpoints:
                 assert proc.poll() is None, "the build ended before it could be killed"
                 assert time.monotonic() < deadline, "no checkpoints within 120 s"
                 time.sleep(0.01)
@@ -131,6 +128,14 @@ def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(proc.pid, signal.SIGKILL)  # the build and its worker processes, at once
             proc.wait(timeout=30)
+
+
+@pytest.mark.slow
+def test_kill_and_resume_gives_the_same_library(reference, tiny_spec, tmp_path):
+    out = tmp_path / "killed.h5"
+    parts = parts_dir_for(out)
+    cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out)]
+    _kill_build_after(cmd, parts, 2, tmp_path / "first.log")
     finished = _count_parts(parts)
     assert 2 <= finished < N_ENTRIES and not out.exists()
 
@@ -197,18 +202,7 @@ def test_resume_discards_damaged_and_unsealed_checkpoints(reference, tiny_spec, 
     out = tmp_path / "lib.h5"
     parts = parts_dir_for(out)
     cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out)]
-    with open(tmp_path / "first.log", "w") as log:
-        proc = subprocess.Popen([*cmd, "--workers", "1"], stdout=log, stderr=log, start_new_session=True)
-        try:
-            deadline = time.monotonic() + 120
-            while _count_parts(parts) < 3:
-                assert proc.poll() is None, "the build ended before it could be killed"
-                assert time.monotonic() < deadline, "no checkpoints within 120 s"
-                time.sleep(0.01)
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait(timeout=30)
+    _kill_build_after(cmd, parts, 3, tmp_path / "first.log")
     checkpoints = sorted(parts.glob("[0-9]*.h5"))
     finished = len(checkpoints)
     damaged, unsealed = checkpoints[0], checkpoints[1]
