@@ -40,8 +40,8 @@ from ..checks import check_params, param
 from ..errors import InputError, MotionlibError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
+from ..planning.joint_to_tip import telescope_along
 from ..planning.planner import Planner, PlanOptions, PlanResult
-from ..planning.redundancy import TelescopeProfile
 from ..planning.spline import TipSpline
 from .recording import Recording
 from .segmentation import Segment, Segmentation, segment_recording
@@ -267,15 +267,8 @@ def _along(rec: Recording, s: Segment, planner: Planner, o: ReplanOptions) -> Re
         spline = TipSpline.from_waypoints(smooth_path(recorded, o.smoothing_m, o.waypoint_spacing_m))
     except InputError as exc:
         return Replanning(ReplanStatus.FAILED, math.nan, f"the recorded path cannot be fitted: {exc}")
-    chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(recorded, axis=0), axis=1))])
-    crane = rec.crane
-    telescope = TelescopeProfile.fit(
-        chord * (spline.length / chord[-1]),
-        rec.q[s.i0 : s.i1 + 1, 3],
-        planner.options.redundancy.degree,
-        float(crane.q_min[3]),
-        float(crane.q_max[3]),
-        float(rec.q[s.i0, 3]),
+    telescope = telescope_along(
+        rec.crane, spline, recorded, rec.q[s.i0 : s.i1 + 1, 3], planner.options.redundancy.degree
     )
     result = planner.plan_along(rec.q[s.i0], spline, telescope)
     r = _from_result(result)

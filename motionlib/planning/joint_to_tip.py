@@ -56,7 +56,13 @@ def tip_path_from_joint_path(
     q = np.concatenate(pieces)
     tips = crane.fk_batch(q)
     spline = TipSpline.from_waypoints(tips)
+    return spline, telescope_along(crane, spline, tips, q[:, 3], degree)
+
+
+def telescope_along(crane: Crane, spline: TipSpline, tips: np.ndarray, q4: np.ndarray, degree: int) -> TelescopeProfile:
+    """The Bézier telescope profile on ``spline`` fitted to telescope values ``q4`` (n,) m taken at tip
+    points ``tips`` (n, 3) m along it (their chord length, scaled to the spline's length, is the arc
+    length); its first control point is ``q4[0]``."""
     chord = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tips, axis=0), axis=1))])
     s = chord * (spline.length / chord[-1])
-    profile = TelescopeProfile.fit(s, q[:, 3], degree, crane.q_min[3], crane.q_max[3], float(q_wp[0, 3]))
-    return spline, profile
+    return TelescopeProfile.fit(s, q4, degree, crane.q_min[3], crane.q_max[3], float(q4[0]))

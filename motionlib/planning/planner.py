@@ -432,8 +432,10 @@ class Planner:
                 "tube_s": motion.tube_s,
                 **motion.diagnostics,
             }
-            # the optimised motion's path is the candidate; the joint path itself when that failed
-            sources[f"{name}+trajopt" if motion.ok else name] = motion.polyline() if motion.ok else joint_paths[name]
+            if motion.ok:  # the optimised motion's path is the candidate
+                sources[f"{name}+trajopt"] = motion.polyline()
+            else:  # the joint path itself
+                sources[name] = joint_paths[name]
         for name, q_wp in sources.items():
             try:
                 spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)

@@ -40,13 +40,14 @@ import enum
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from ..errors import PlanningError
 from ..model.crane_model import CraneModel
 from ..model.kinematics import Crane
 from .jointspace import subdivide, time_scales
@@ -57,7 +58,7 @@ N_INTERVALS = 40
 SMOOTHING_WEIGHT = 1e-3
 #: Tube radii rho (s of motion at the velocity limits) tried from wide to narrow; inf = free.
 TUBE_RADII_S: tuple[float, ...] = (math.inf, 0.5, 0.2, 0.05)
-#: Clearance functions linearised in the NLP (the arm's and the hanging grapple's, see :class:`Clearance`).
+#: Clearance functions linearised in the NLP (the arm's and the hanging grapple's: the planner's ``_clearances``).
 N_CLEARANCES = 2
 #: Clearance (m) kept above zero by the linearised constraints, for the motion between the points.
 CLEARANCE_MARGIN_M = 0.01
@@ -126,8 +127,6 @@ class TrajoptResult:
     def raise_for_status(self) -> TrajoptResult:
         """Return self when OK, else raise :class:`~motionlib.errors.PlanningError`."""
         if not self.ok:
-            from ..errors import PlanningError
-
             raise PlanningError("trajopt", self.reason)
         return self
 
@@ -142,7 +141,6 @@ class TrajoptResult:
 @dataclass
 class _Nlp:
     solver: Any
-    n: int
     lbg: np.ndarray
     ubg: np.ndarray
     lbx: np.ndarray
@@ -229,7 +227,7 @@ def _build_nlp(model: CraneModel, n: int) -> _Nlp:
             k += 4 * rows
         return float(xv[0]), out[0], out[1], out[2], out[3]
 
-    return _Nlp(solver, n, np.array(lbg), np.array(ubg), lbx, ubx, unpack)
+    return _Nlp(solver, np.array(lbg), np.array(ubg), lbx, ubx, unpack)
 
 
 def resample_reference(crane: Crane, q_wp: np.ndarray, n: int) -> np.ndarray:
@@ -448,6 +446,4 @@ def fastest_valid_trajectory(
         return TrajoptResult(
             TrajoptStatus.INVALID, "no motion found that keeps the clearances", diagnostics={"tried": tried}
         )
-    return TrajoptResult(
-        best.status, "", best.duration_s, best.t, best.q, best.qd, best.qdd, best.tube_s, {"tried": tried}
-    )
+    return replace(best, diagnostics={**best.diagnostics, "tried": tried})
