@@ -3,7 +3,7 @@
 Run: ``python benchmarks/sources.py [--steps N]``
 
 Lab crane, mode M4 (manual Cartesian), the stick held at a constant deflection pushing the grapple
-into the ground, the ground contact (:mod:`motionlib.runtime.contact`) evaluated every step:
+into the ground, the simulated crane's ground contact (:mod:`motionlib.runtime.contact`) on:
 
 * ``stick``: the default Cartesian joystick (the tip, cylindrical mapping);
 * ``stick on log end``: the joystick wrapped in a :class:`~motionlib.runtime.frames_source.FrameSource`
@@ -29,11 +29,11 @@ from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.frames import SLEW_CRF, standard_mrfs
 from motionlib.model.kinematics import Crane
 from motionlib.runtime.accommodation import AccommodationSource
-from motionlib.runtime.contact import GroundContact
+from motionlib.runtime.contact import ContactParams
 from motionlib.runtime.control_types import OperatorInput
 from motionlib.runtime.controller import SharedController
 from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.plant import SimulatedCrane
+from motionlib.runtime.plant import SimParams, SimulatedCrane
 from motionlib.runtime.sources import CartesianJoystick, StepContext
 from motionlib.runtime.vision import CameraParams, SimulatedCamera, VisionSource
 
@@ -51,14 +51,13 @@ def _controller_step_ns(crane: Crane, config: str, steps: int) -> np.ndarray:
     if config == "+ accommodation":
         acc = AccommodationSource(AccommodationSource.gains_for_bound(3000.0, 0.8))
         ctrl.add_source(acc)
-    sim = SimulatedCrane(crane, crane.ik([2.5, 0.4, crane.model.grapple_length + 0.05], 0.3))
-    ground = GroundContact()
+    q0 = crane.ik([2.5, 0.4, crane.model.grapple_length + 0.05], 0.3)
+    sim = SimulatedCrane(crane, q0, SimParams(contact=ContactParams()))
     out = np.empty(steps)
     for k in range(steps):
         state = sim.state()
-        f = ground.force(sim.t, sim.grapple)
         if acc is not None:
-            acc.sense(f)
+            acc.sense(sim.contact_force)
         inp = OperatorInput(state.t, AXES)
         t0 = time.perf_counter_ns()
         cmd = ctrl.step(state, inp)

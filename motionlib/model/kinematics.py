@@ -202,8 +202,10 @@ class Crane:
         inside = [v for v in options if lo <= v <= hi]
         if not inside:
             raise InputError(f"yaw {yaw:.4f} rad at slew {q1:.4f} rad: no rotator angle within [{lo}, {hi}] rad")
+        nearest = min(abs(v - q5_ref) for v in inside)
+        near = [v for v in inside if abs(v - q5_ref) <= nearest + YAW_TIE_RAD]
         tie = (lambda v: abs(q1 + v - yaw_ref)) if yaw_ref is not None else (lambda v: 0.0)
-        return float(min(inside, key=lambda v: (round(abs(v - q5_ref) / YAW_TIE_RAD), tie(v))))
+        return float(min(near, key=lambda v: (tie(v), abs(v - q5_ref))))
 
     def log_point(self, q: Any, offset: Any) -> np.ndarray:
         """A point rigidly attached to the hanging grapple: ``p_tip + Rz(psi) o`` (3,) (m, base frame).

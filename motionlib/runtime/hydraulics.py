@@ -31,6 +31,9 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
 velocity follows the pump-shared command with the first-order lag
 ``tau_v v' = y - v`` (exact step), its change bounded by ``a_relief h``; the load does not act back.
 
+The substep is compiled with numba (:func:`actuators_substep`); the simulated crane calls it from
+its own compiled substep loop, and :class:`HydraulicJoints` holds the state it works on.
+
 The natural frequency follows from the oil compliance (Merritt 1967, eq. for a symmetric
 valve-controlled cylinder at mid stroke): :func:`natural_frequency_rad_s`.
 """
@@ -40,7 +43,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+from numba import njit
+
 from .pump import flow_share
+
+#: Rows of the joint state array (5, n) of :func:`actuators_substep`.
+Q, V, X, S, Y = range(5)
 
 
 def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_volume_m3: float,
@@ -61,35 +70,93 @@ def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_vol
     return math.sqrt(4.0 * bulk_modulus_pa * displacement * displacement / (oil_volume_m3 * inertia))
 
 
+@njit(cache=True)
+def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w2: float, zw2: float,
+                      a_relief, displacement, pump_flow: float) -> float:
+    """Advance every joint by one substep ``h`` (s), in place; returns the flow-sharing factor ``k``.
+
+    Steps 1-5 of the module docstring.
+
+    Parameters
+    ----------
+    state : ndarray, shape (5, n)
+        Rows ``Q, V, X, S, Y``: positions (rad, m), velocities, valve states (the speeds the valves
+        demand), pressure terms (per unit inertia, rad/s^2, m/s^2) and the pump-shared speeds.
+    u : ndarray, shape (n,)
+        Valve commands after dead band and saturation (rad/s, m/s).
+    f : ndarray, shape (n,)
+        Load per unit inertia (rad/s^2, m/s^2).
+    h, alpha : float
+        Substep (s) and the valve's exact step ``1 - exp(-h / tau_v)``.
+    second_order : bool
+        The oil-compliance model; False: the first-order option.
+    w2, zw2 : float
+        ``omega^2`` and ``2 zeta omega``.
+    a_relief : ndarray, shape (n,)
+        Acceleration bound of each joint.
+    displacement : ndarray, shape (n,)
+        ``d_i`` (m^3/rad, m^3/m).
+    pump_flow : float
+        ``Q_pump`` (m^3/s); 0 or less: no pump limit.
+    """
+    n = u.shape[0]
+    q, v, x, s, y = state[Q], state[V], state[X], state[S], state[Y]
+    for i in range(n):
+        x[i] = x[i] + (u[i] - x[i]) * alpha if second_order else u[i]
+    k = flow_share(x, displacement, pump_flow) if pump_flow > 0.0 else 1.0
+    for i in range(n):
+        yi = k * x[i]
+        y[i] = yi
+        if second_order:
+            fi = f[i]
+            si = s[i] + h * (w2 * (yi - v[i]) - zw2 * (s[i] + fi))
+            a = si + fi
+            if a > a_relief[i]:
+                a = a_relief[i]
+                si = a - fi
+            elif a < -a_relief[i]:
+                a = -a_relief[i]
+                si = a - fi
+            s[i] = si
+            dv = a * h
+        else:
+            dv = (yi - v[i]) * alpha
+            c = a_relief[i] * h
+            dv = c if dv > c else (-c if dv < -c else dv)
+        q[i] += (v[i] + 0.5 * dv) * h
+        v[i] += dv
+    return k
+
+
 class HydraulicJoints:
-    """The joint actuators (see the module docstring); state lists of 4 floats, or 5 with the rotator.
+    """The actuators' state and parameters (see the module docstring); n = 4 joints, or 5 with the rotator.
 
     The grapple rotator (a hydraulic motor, crane file section ``rotator``) is one more joint of
     the same form, drawing from the same pump (its displacement the fifth ``d_i``).
 
     Parameters
     ----------
-    q, v : sequence of 4 float
+    q, v : sequence of n float
         Initial joint positions and velocities.
-    f : sequence of 4 float
+    f : sequence of n float
         Initial load per unit inertia (rad/s^2, m/s^2): the actuators start balancing it (``s = -f``).
     second_order : bool
         The oil-compliance model; False: the first-order option.
     valve_tau_s, omega_rad_s, damping_ratio : float
         ``tau_v``, ``omega``, ``zeta``.
-    a_relief : sequence of 4 float
+    a_relief : sequence of n float
         Acceleration bound of each joint (rad/s^2, m/s^2).
-    displacement : sequence of 4 float or None
+    displacement : sequence of n float or None
         ``d_i`` (m^3/rad, m^3/m); None: no pump limit.
     pump_flow : float or None
         ``Q_pump`` (m^3/s).
 
     Attributes
     ----------
-    q, v, x, s : list of 4 float
-        Positions, velocities, valve states (the speeds the valves demand) and pressure terms.
-    y : list of 4 float
-        The pump-shared speeds of the last substep (the flow delivered / ``d_i``).
+    state : ndarray, shape (5, n)
+        Rows ``Q, V, X, S, Y`` of :func:`actuators_substep`.
+    q, v, x, s, y : ndarray, shape (n,)
+        Views of its rows: positions, velocities, valve states, pressure terms, pump-shared speeds.
     share : float
         The flow-sharing factor ``k`` of the last substep.
     """
@@ -97,62 +164,18 @@ class HydraulicJoints:
     def __init__(self, q: Sequence[float], v: Sequence[float], f: Sequence[float], *, second_order: bool,
                  valve_tau_s: float, omega_rad_s: float, damping_ratio: float, a_relief: Sequence[float],
                  displacement: Sequence[float] | None, pump_flow: float | None):
-        self.q = [float(a) for a in q]
-        self.n = len(self.q)  # 4, or 5 with the grapple rotator
-        self.v = [float(a) for a in v]
-        self.x = list(self.v)
-        self.s = [-float(a) for a in f]
-        self.y = list(self.v)
+        self.n = len(q)
+        self.state = np.zeros((5, self.n))
+        self.q, self.v, self.x, self.s, self.y = self.state
+        self.q[:], self.v[:], self.x[:], self.y[:] = q, v, v, v
+        self.s[:] = -np.asarray(f, dtype=float)
         self.share = 1.0
         self.second_order = bool(second_order)
         self.tau = float(valve_tau_s)
         self.w2 = float(omega_rad_s) ** 2
         self.zw2 = 2.0 * float(damping_ratio) * float(omega_rad_s)
-        self.a_relief = [float(a) for a in a_relief]
-        self.displacement = None if displacement is None else [float(a) for a in displacement]
-        self.pump_flow = pump_flow
-        self._h = math.nan
-        self._alpha = 0.0
+        self.a_relief = np.array(a_relief, dtype=float)
+        limited = displacement is not None and pump_flow is not None
+        self.displacement = np.array(displacement if limited else [0.0] * self.n, dtype=float)
+        self.pump_flow = float(pump_flow) if limited and pump_flow is not None else 0.0
 
-    def substep(self, u: Sequence[float], f: Sequence[float], h: float) -> None:
-        """Advance every joint by ``h`` (s) with the valve command ``u`` (n,) and the load ``f`` (n,)."""
-        if h != self._h:
-            self._h = h
-            self._alpha = 1.0 - math.exp(-h / self.tau)
-        alpha = self._alpha
-        q, v, x, s, y, cap = self.q, self.v, self.x, self.s, self.y, self.a_relief
-        if self.second_order:
-            for i in range(self.n):
-                x[i] += (u[i] - x[i]) * alpha
-        else:
-            x[:] = u
-        k = 1.0
-        if self.displacement is not None and self.pump_flow is not None:
-            k = flow_share(x, self.displacement, self.pump_flow)
-        self.share = k
-        if self.second_order:
-            w2, zw2 = self.w2, self.zw2
-            for i in range(self.n):
-                yi = k * x[i]
-                y[i] = yi
-                fi = f[i]
-                si = s[i] + h * (w2 * (yi - v[i]) - zw2 * (s[i] + fi))
-                a = si + fi
-                if a > cap[i]:
-                    a = cap[i]
-                    si = a - fi
-                elif a < -cap[i]:
-                    a = -cap[i]
-                    si = a - fi
-                s[i] = si
-                q[i] += (v[i] + 0.5 * a * h) * h
-                v[i] += a * h
-        else:
-            for i in range(self.n):
-                yi = k * x[i]
-                y[i] = yi
-                d = (yi - v[i]) * alpha
-                c = cap[i] * h
-                d = c if d > c else (-c if d < -c else d)
-                q[i] += (v[i] + 0.5 * d) * h
-                v[i] += d

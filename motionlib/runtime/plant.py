@@ -19,7 +19,7 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
    ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
    response (``natural_freq_hz``, ``damping_ratio``) with the grapple's reaction as a load, and
    the relief valves' acceleration bound ``accel_factor * qdd_max_i``; ``model="first_order"``
-   is the fast option without spool state, compliance and reaction;
+   is the simpler option without spool state, compliance and reaction;
 5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity into the
    stop is zeroed (counted in ``hard_stop_hits``).
 
@@ -55,6 +55,21 @@ Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_grapple)`` (N
 ``J`` the tip Jacobian at the start of the control period), the load term of
 :class:`~motionlib.runtime.hydraulics.HydraulicJoints`.
 
+Ground contact (``SimParams.contact``)
+--------------------------------------
+The ground pushes the grapple point out of the plane ``z = ground_z`` with a spring-damper and
+holds it with Coulomb friction (:mod:`motionlib.runtime.contact`); the force enters the grapple's
+Verlet step, so it reaches the tip through the rod (``F = m (g_vec - a_grapple) + F_ground``) and
+the joints through the reaction above. :attr:`SimulatedCrane.contact_force` is what a force
+sensor above the grapple reads (001 section 2.5).
+
+Speed
+-----
+The substeps of a control period run in one numba-compiled function, :func:`integrate_period`
+(the actuators of :func:`~motionlib.runtime.hydraulics.actuators_substep`, the end stops, the
+tip of :func:`~motionlib.model.fast_kinematics.tip_point`, the grapple and the contact);
+:meth:`SimulatedCrane.advance` applies steps 1-3 on Python floats and calls it once.
+
 Parameters and their sources: :class:`SimParams`.
 """
 
@@ -67,13 +82,15 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..errors import InputError
-from ..model.fast_kinematics import TipKinematics
+from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
+from .contact import ContactParams, ground_force
 from .control_types import GRAVITY_M_S2, CraneState
-from .hydraulics import HydraulicJoints
+from .hydraulics import HydraulicJoints, Q, V, actuators_substep
 
 MODELS = ("second_order", "first_order")
 
@@ -88,7 +105,7 @@ class SimParams:
     ----------
     model : str
         ``"second_order"`` (valve lag, oil compliance, reaction; default) or ``"first_order"``
-        (velocity lag only; faster). 000 section 2.1: the lab crane's joints are identified
+        (velocity lag only, the load does not act back). 000 section 2.1: the lab crane's joints are identified
         as second-order systems under their joint controllers.
     dt_sub_s : float
         Integration substep (s); 1 kHz, finer than the 200 Hz control rate (000 section 3.4)
@@ -142,6 +159,8 @@ class SimParams:
     swing_damping_per_s : float
         Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``. Assumption.
     gravity_m_s2 : float
+    contact : ContactParams or None
+        The grapple's contact with the ground (:mod:`motionlib.runtime.contact`); None: none.
     """
 
     model: str = "second_order"
@@ -163,6 +182,7 @@ class SimParams:
     pendulum_length_m: float | None = param(None, gt=0.0, optional=True)
     swing_damping_per_s: float = param(0.4, ge=0.0)
     gravity_m_s2: float = param(GRAVITY_M_S2, gt=0.0)
+    contact: ContactParams | None = None
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -179,6 +199,132 @@ class SimParams:
             inertia = check_vector(self.joint_inertia, 4, "joint_inertia")
             if not np.all(inertia > 0.0):
                 raise InputError(f"joint_inertia: expected 4 positive values, got {list(self.joint_inertia)}")
+
+
+#: Rows of the grapple's state array (6, 3) of :func:`integrate_period` (m, N; base frame).
+GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV, ROD_FORCE, CONTACT_FORCE = range(6)
+
+
+@njit(cache=True)
+def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2: float, zw2: float,
+                     a_relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
+                     gravity: float, damping: float, mass: float, react: bool, inv_inertia, ground_z: float,
+                     contact_k: float, contact_c: float, friction: float):
+    """Integrate the plant over one control period of ``n_sub`` substeps ``h`` (s), in place (module docstring).
+
+    Parameters
+    ----------
+    u : ndarray, shape (n,)
+        Valve commands after dead band, gains and saturation (steps 1-3), held over the period.
+    joints : ndarray, shape (5, n)
+        The actuators' state (:class:`~motionlib.runtime.hydraulics.HydraulicJoints`).
+    alpha, second_order, w2, zw2, a_relief, displacement, pump_flow
+        The actuators' parameters (:func:`~motionlib.runtime.hydraulics.actuators_substep`).
+    q_min, q_max : ndarray, shape (n,)
+        End stops (rad, m).
+    at_stop : ndarray of bool, shape (n,)
+        Which joints sit at an end stop (updated).
+    g : tuple of 5 float
+        The crane's geometry (:func:`motionlib.model.fast_kinematics.geometry`).
+    pend : ndarray, shape (6, 3)
+        Rows ``GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV`` (m) and the forces ``ROD_FORCE`` (of the rod
+        on the tip) and ``CONTACT_FORCE`` (of the ground on the grapple) (N) of the last substep.
+    length, gravity, damping, mass : float
+        Rod length (m), gravity (m/s^2), swing damping ``c`` (1/s), grapple mass (kg).
+    react : bool
+        The rod's force acts on the joints (second-order model with a load mass).
+    inv_inertia : ndarray, shape (n,)
+        ``1 / I_i`` (the rotator's 0: no load).
+    ground_z, contact_k, contact_c, friction : float
+        Ground height (m), stiffness (N/m; 0: no contact), damping (N s/m) and friction coefficient.
+
+    Returns
+    -------
+    hits : int
+        New end-stop hits.
+    pump_ratio : float
+        Largest delivered flow over the pump's flow in the period (0 without a pump limit).
+    share : float
+        The flow-sharing factor of the last substep.
+    """
+    n = u.shape[0]
+    q, v, s = joints[0], joints[1], joints[3]
+    _, jac = tip_point_jacobian(g, q[0], q[1], q[2], q[3])
+    f = np.zeros(n)
+    hits = 0
+    pump_ratio = 0.0
+    share = 1.0
+    length2 = length * length
+    grav_h2 = gravity * h * h
+    damp = damping * h
+    mass_h2 = mass / (h * h)
+    gx, gy, gz = pend[GRAPPLE, 0], pend[GRAPPLE, 1], pend[GRAPPLE, 2]
+    gpx, gpy, gpz = pend[GRAPPLE_PREV, 0], pend[GRAPPLE_PREV, 1], pend[GRAPPLE_PREV, 2]
+    tx, ty, tz = pend[TIP, 0], pend[TIP, 1], pend[TIP, 2]
+    tpx, tpy, tpz = pend[TIP_PREV, 0], pend[TIP_PREV, 1], pend[TIP_PREV, 2]
+    fx, fy, fz = pend[ROD_FORCE, 0], pend[ROD_FORCE, 1], pend[ROD_FORCE, 2]
+    fcx = fcy = fcz = 0.0
+    for _ in range(n_sub):
+        if react:  # load per unit inertia f_i = (J^T F)_i / I_i, J at the start of the period
+            for i in range(4):
+                f[i] = (jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv_inertia[i]
+        share = actuators_substep(joints, u, f, h, alpha, second_order, w2, zw2, a_relief, displacement, pump_flow)
+        if pump_flow > 0.0:
+            r = 0.0
+            for i in range(n):
+                r += displacement[i] * abs(joints[4, i])
+            pump_ratio = max(pump_ratio, r / pump_flow)
+        for i in range(n):  # end stops: clamp, stop the motion into the stop, count new hits
+            if q[i] >= q_max[i] or q[i] <= q_min[i]:
+                upper = q[i] >= q_max[i]
+                q[i] = q_max[i] if upper else q_min[i]
+                if (v[i] > 0.0) if upper else (v[i] < 0.0):
+                    v[i] = 0.0
+                    s[i] = -f[i]
+                if not at_stop[i]:
+                    at_stop[i] = True
+                    hits += 1
+            else:
+                at_stop[i] = False
+        nx, ny, nz = tip_point(g, q[0], q[1], q[2], q[3])
+        # grapple: position Verlet with damping on the velocity relative to the tip, the ground's push ...
+        sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
+        cx = gx + sx - damp * (sx - (tx - tpx))
+        cy = gy + sy - damp * (sy - (ty - tpy))
+        cz = gz + sz - damp * (sz - (tz - tpz)) - grav_h2
+        fcx = fcy = fcz = 0.0
+        if contact_k > 0.0:
+            fcz = ground_force(gz, gpz, h, ground_z, contact_k, contact_c)
+            if fcz > 0.0:
+                cz += fcz / mass_h2
+                # ... and its friction: stops the sliding within the step if mu f_n can (stable at any force)
+                dx, dy = cx - gx, cy - gy
+                slide = math.sqrt(dx * dx + dy * dy)
+                if slide > 0.0:
+                    stop = min(1.0, friction * fcz / mass_h2 / slide)
+                    cx -= stop * dx
+                    cy -= stop * dy
+                    fcx, fcy = -stop * dx * mass_h2, -stop * dy * mass_h2
+        # SHAKE: move along the previous rod direction until the rod has its length again
+        ox, oy, oz = gx - tx, gy - ty, gz - tz
+        dx, dy, dz = cx - nx, cy - ny, cz - nz
+        dr = dx * ox + dy * oy + dz * oz
+        excess = dx * dx + dy * dy + dz * dz - length2
+        root = math.sqrt(dr * dr - length2 * excess) if dr * dr > length2 * excess else 0.0
+        lam = -excess / (dr + root if dr >= 0.0 else dr - root)
+        ngx, ngy, ngz = cx + lam * ox, cy + lam * oy, cz + lam * oz
+        if react:  # the rod's pull on the tip: m (g_vec - a_grapple) + the ground's push on the grapple
+            fx = -mass_h2 * (ngx - 2.0 * gx + gpx) + fcx
+            fy = -mass_h2 * (ngy - 2.0 * gy + gpy) + fcy
+            fz = -mass * gravity - mass_h2 * (ngz - 2.0 * gz + gpz) + fcz
+        gpx, gpy, gpz = gx, gy, gz
+        gx, gy, gz = ngx, ngy, ngz
+        tpx, tpy, tpz = tx, ty, tz
+        tx, ty, tz = nx, ny, nz
+    for row, (a, b, c) in ((GRAPPLE, (gx, gy, gz)), (GRAPPLE_PREV, (gpx, gpy, gpz)), (TIP, (tx, ty, tz)),
+                           (TIP_PREV, (tpx, tpy, tpz)), (ROD_FORCE, (fx, fy, fz)), (CONTACT_FORCE, (fcx, fcy, fcz))):
+        pend[row, 0], pend[row, 1], pend[row, 2] = a, b, c
+    return hits, pump_ratio, share
 
 
 class SimulatedCrane:
@@ -245,10 +391,9 @@ class SimulatedCrane:
             raise InputError(f"rotator0: {rotator0} rad is outside the rotator's limits [{rot.lower}, {rot.upper}]")
         self.rotator_q = min(max(rotator0, rot.lower), rot.upper) if rot is not None else 0.0
         self.rotator_qd = 0.0
-        self.kin = TipKinematics(crane)
+        self._g = geometry(crane)
         full = crane.full_limits  # (n,) with the rotator last on a crane that has one
-        self._q_min = tuple(full["q_min"].tolist())
-        self._q_max = tuple(full["q_max"].tolist())
+        self._q_min, self._q_max = full["q_min"].copy(), full["q_max"].copy()
         self._v_min = tuple(full["qd_min"].tolist())
         self._v_max = tuple(full["qd_max"].tolist())
         speed = np.minimum(-full["qd_min"], full["qd_max"])
@@ -260,50 +405,52 @@ class SimulatedCrane:
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
         self.hard_stop_hits = 0
         self.peak_pump_ratio = 0.0
-        self._at_stop = [False] * self._n
-        self._second = prm.model == "second_order"
+        self._at_stop = np.zeros(self._n, dtype=bool)
+        second = prm.model == "second_order"
         model = crane.model
         mass = prm.load_mass_kg if prm.load_mass_kg is not None else model.load_mass
         inertia = prm.joint_inertia if prm.joint_inertia is not None else model.joint_inertia
         if mass and inertia is None:
             raise InputError(f"crane {crane.name!r}: a load mass needs joint_inertia (SimParams or the crane file)")
-        self._mass = float(mass or 0.0) if self._second else 0.0
-        self._inv_inertia = tuple(1.0 / float(i) for i in inertia) if inertia is not None else (0.0,) * 4
+        self._mass = float(mass or 0.0)
+        if prm.contact is not None and self._mass <= 0.0:
+            raise InputError(f"crane {crane.name!r}: ground contact needs the grapple's mass (SimParams.load_mass_kg "
+                             "or the crane file's dynamics.load_mass)")
+        self._react = second and self._mass > 0.0
+        inv = [1.0 / float(i) for i in inertia] if inertia is not None else [0.0] * 4
+        self._inv_inertia = np.array(inv + [0.0] * (self._n - 4))
         disp = crane.model.displacement
         if disp is not None and rot is not None:
             if crane.model.rotator_displacement is None:
                 raise InputError(f"crane {crane.name!r}: hydraulics.displacement.rotator is missing")
             disp = (*disp, crane.model.rotator_displacement)
-        self._disp = disp
         pump = crane.model.pump_flow
-        self._pump = prm.pump_sharing and disp is not None and pump is not None
+        shared = prm.pump_sharing and disp is not None and pump is not None
         # grapple hanging still relative to the tip
-        p, jac = self.kin.tip_jacobian(*self.q)
+        p, jac = tip_point_jacobian(self._g, *self.q)
         self.tip = p
         h = prm.dt_sub_s
         v = [sum(jac[4 * r + c] * self.qd[c] for c in range(4)) for r in range(3)]
         self.grapple = (p[0], p[1], p[2] - self.length_m)
-        self._grapple_prev = tuple(self.grapple[r] - v[r] * h for r in range(3))
-        self._tip_prev = tuple(p[r] - v[r] * h for r in range(3))
+        self._pend = np.zeros((6, 3))
+        self._pend[GRAPPLE] = self.grapple
+        self._pend[GRAPPLE_PREV] = [self.grapple[r] - v[r] * h for r in range(3)]
+        self._pend[TIP] = p
+        self._pend[TIP_PREV] = [p[r] - v[r] * h for r in range(3)]
+        if self._react:
+            self._pend[ROD_FORCE, 2] = -self._mass * prm.gravity_m_s2  # the rod's pull on the tip (N)
         self._h_last = h
-        self._force = (0.0, 0.0, -self._mass * prm.gravity_m_s2)  # the rod's pull on the tip (N)
+        f = [sum(jac[4 * r + i] * self._pend[ROD_FORCE, r] for r in range(3)) * self._inv_inertia[i]
+             for i in range(4)] + [0.0] * (self._n - 4)
         extra = (self.rotator_q,) if rot is not None else ()
         self.joints = HydraulicJoints(
-            self.q + extra, self.qd + (0.0,) * len(extra), self._load(jac), second_order=self._second,
+            self.q + extra, self.qd + (0.0,) * len(extra), f, second_order=second,
             valve_tau_s=prm.tau_s, omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
             a_relief=(prm.accel_factor * full["qdd_max"]).tolist(),
-            displacement=list(disp) if self._pump and disp is not None else None,
-            pump_flow=float(pump) if self._pump and pump is not None else None,
+            displacement=list(disp) if shared and disp is not None else None,
+            pump_flow=float(pump) if shared and pump is not None else None,
         )
-
-    def _load(self, jac: Sequence[float]) -> list[float]:
-        """Load per unit inertia ``f_i = (J^T F)_i / I_i`` (n,) of the rod's pull ``F`` on the tip (rotator: 0)."""
-        fx, fy, fz = self._force
-        inv = self._inv_inertia
-        load = [(jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv[i] for i in range(4)]
-        if self._n == 5:
-            load.append(0.0)
-        return load
+        self._u = np.zeros(self._n)
 
     # --------------------------------------------------------------- read-out
     def state(self) -> CraneState:
@@ -319,6 +466,12 @@ class SimulatedCrane:
         rz = self.grapple[2] - self.tip[2]
         return math.atan2(math.sqrt(rx * rx + ry * ry), -rz)
 
+    @property
+    def contact_force(self) -> tuple[float, float, float]:
+        """Force (3,) (N, base frame) of the ground on the grapple in the last substep (0 without ``contact``)."""
+        fx, fy, fz = self._pend[CONTACT_FORCE].tolist()
+        return (fx, fy, fz)
+
     def set_grapple(self, offset: Sequence[float], velocity: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
         """Place the grapple at ``tip + offset`` (3,) (scaled onto the rod length) with ``velocity`` (3,) (m/s).
 
@@ -331,12 +484,11 @@ class SimulatedCrane:
             raise InputError("offset: expected a non-zero vector")
         r = r * (self.length_m / n)
         v = v - (v @ r) / (r @ r) * r
-        tip = np.asarray(self.tip)
-        tip_prev = np.asarray(self._tip_prev)
+        tip, tip_prev = self._pend[TIP], self._pend[TIP_PREV]
         g = tip + r
-        h = self.params.dt_sub_s
+        self._pend[GRAPPLE] = g
+        self._pend[GRAPPLE_PREV] = g - (v * self.params.dt_sub_s + (tip - tip_prev))
         self.grapple = tuple(g.tolist())
-        self._grapple_prev = tuple((g - (v * h + (tip - tip_prev))).tolist())
 
     def set_payload(self, fraction: float) -> None:
         """The grapple now carries ``fraction`` of the rated load (0: empty)."""
@@ -345,29 +497,9 @@ class SimulatedCrane:
     @property
     def tip_velocity(self) -> tuple[float, float, float]:
         """Tip velocity (m/s) over the last substep (backward difference)."""
+        (tx, ty, tz), (px, py, pz) = self._pend[TIP].tolist(), self._pend[TIP_PREV].tolist()
         h = self._h_last
-        return ((self.tip[0] - self._tip_prev[0]) / h, (self.tip[1] - self._tip_prev[1]) / h,
-                (self.tip[2] - self._tip_prev[2]) / h)
-
-    def _end_stops(self, q: list[float], v: list[float], s: list[float], f: list[float]) -> None:
-        """Clamp joints at their end stops, stop the motion into the stop, count new hits (in place)."""
-        for i in range(self._n):
-            if q[i] >= self._q_max[i]:
-                q[i] = self._q_max[i]
-                if v[i] > 0.0:
-                    v[i] = 0.0
-                    s[i] = -f[i]
-            elif q[i] <= self._q_min[i]:
-                q[i] = self._q_min[i]
-                if v[i] < 0.0:
-                    v[i] = 0.0
-                    s[i] = -f[i]
-            else:
-                self._at_stop[i] = False
-                continue
-            if not self._at_stop[i]:
-                self._at_stop[i] = True
-                self.hard_stop_hits += 1
+        return ((tx - px) / h, (ty - py) / h, (tz - pz) / h)
 
     # --------------------------------------------------------------- advance
     def advance(self, qd_cmd: Sequence[float], duration_s: float, rotator_cmd: float = 0.0) -> None:
@@ -377,12 +509,12 @@ class SimulatedCrane:
         rotator). A non-finite command component is treated as 0 (the valve closes).
         """
         prm = self.params
-        n = max(1, int(round(duration_s / prm.dt_sub_s)))
-        h = duration_s / n
+        n_sub = max(1, int(round(duration_s / prm.dt_sub_s)))
+        h = duration_s / n_sub
         db, vmin, vmax = self._deadband, self._v_min, self._v_max
         noise = prm.noise_frac
         load = prm.load_speed_loss * self.payload_frac
-        u = []
+        u = self._u
         for i in range(4):
             c = float(qd_cmd[i])
             if not math.isfinite(c) or -db[i] < c < db[i]:
@@ -393,87 +525,28 @@ class SimulatedCrane:
                     c *= 1.0 - load if c > 0.0 else 1.0 + load
                 if noise > 0.0:
                     c *= 1.0 + noise * self._rng.gauss(0.0, 1.0)
-            if c > vmax[i]:
-                c = vmax[i]
-            elif c < vmin[i]:
-                c = vmin[i]
-            u.append(c)
+            u[i] = min(max(c, vmin[i]), vmax[i])
         if self._n == 5:  # the rotator: dead band and saturation only (module docstring)
             c = float(rotator_cmd)
             if not math.isfinite(c) or -db[4] < c < db[4]:
                 c = 0.0
-            u.append(min(max(c, vmin[4]), vmax[4]))
-        joints = self.joints
-        q, v, s = joints.q, joints.v, joints.s
-        lo0, lo1, lo2, lo3 = self._q_min[:4]
-        hi0, hi1, hi2, hi3 = self._q_max[:4]
-        tip = self.kin.tip
-        sqrt = math.sqrt
-        length2 = self.length_m * self.length_m
-        grav_h2 = prm.gravity_m_s2 * h * h
-        damp = prm.swing_damping_per_s * h
-        mass_h2 = self._mass / (h * h)
-        mg = self._mass * prm.gravity_m_s2
-        gx, gy, gz = self.grapple
-        gpx, gpy, gpz = self._grapple_prev
-        tx, ty, tz = self.tip
-        tpx, tpy, tpz = self._tip_prev
-        _, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
-        f = self._load(jac)
-        pump_ratio = self.peak_pump_ratio
-        disp = self._disp if self._pump else None
-        rotator = self._n == 5
-        q_pump = self.crane.model.pump_flow
-        for _ in range(n):
-            joints.substep(u, f, h)
-            if disp is not None and q_pump is not None:
-                y = joints.y
-                r = disp[0] * abs(y[0]) + disp[1] * abs(y[1]) + disp[2] * abs(y[2]) + disp[3] * abs(y[3])
-                if rotator:
-                    r += disp[4] * abs(y[4])
-                r /= q_pump
-                if r > pump_ratio:
-                    pump_ratio = r
-            if not (lo0 < q[0] < hi0 and lo1 < q[1] < hi1 and lo2 < q[2] < hi2 and lo3 < q[3] < hi3) or (
-                rotator and not self._q_min[4] < q[4] < self._q_max[4]
-            ):
-                self._end_stops(q, v, s, f)
-            else:
-                self._at_stop[0] = self._at_stop[1] = self._at_stop[2] = self._at_stop[3] = False
-                if rotator:
-                    self._at_stop[4] = False
-            nx, ny, nz = tip(q[0], q[1], q[2], q[3])
-            # grapple: position Verlet with damping on the velocity relative to the tip ...
-            sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
-            cx = gx + sx - damp * (sx - (tx - tpx))
-            cy = gy + sy - damp * (sy - (ty - tpy))
-            cz = gz + sz - damp * (sz - (tz - tpz)) - grav_h2
-            # SHAKE: move along the previous rod direction r until the rod has its length again
-            ox, oy, oz = gx - tx, gy - ty, gz - tz
-            dx, dy, dz = cx - nx, cy - ny, cz - nz
-            dr = dx * ox + dy * oy + dz * oz
-            excess = dx * dx + dy * dy + dz * dz - length2
-            root = sqrt(dr * dr - length2 * excess) if dr * dr > length2 * excess else 0.0
-            lam = -excess / (dr + root if dr >= 0.0 else dr - root)
-            ngx, ngy, ngz = cx + lam * ox, cy + lam * oy, cz + lam * oz
-            if mass_h2 > 0.0:  # the rod's pull on the tip, m (g_vec - a_grapple), and the joints' load
-                fx = -mass_h2 * (ngx - 2.0 * gx + gpx)
-                fy = -mass_h2 * (ngy - 2.0 * gy + gpy)
-                fz = -mg - mass_h2 * (ngz - 2.0 * gz + gpz)
-                self._force = (fx, fy, fz)
-                f = self._load(jac)
-            gpx, gpy, gpz = gx, gy, gz
-            gx, gy, gz = ngx, ngy, ngz
-            tpx, tpy, tpz = tx, ty, tz
-            tx, ty, tz = nx, ny, nz
-        self.q = (q[0], q[1], q[2], q[3])
-        self.qd = (v[0], v[1], v[2], v[3])
-        if rotator:
+            u[4] = min(max(c, vmin[4]), vmax[4])
+        j, contact = self.joints, prm.contact
+        hits, pump_ratio, j.share = integrate_period(
+            u, n_sub, h, j.state, 1.0 - math.exp(-h / j.tau), j.second_order, j.w2, j.zw2, j.a_relief,
+            j.displacement, j.pump_flow, self._q_min, self._q_max, self._at_stop, self._g, self._pend,
+            self.length_m, prm.gravity_m_s2, prm.swing_damping_per_s, self._mass, self._react, self._inv_inertia,
+            contact.ground_z if contact else 0.0, contact.stiffness_n_m if contact else 0.0,
+            contact.damping_n_s_m if contact else 0.0, contact.friction if contact else 0.0,
+        )
+        self.hard_stop_hits += hits
+        self.peak_pump_ratio = max(self.peak_pump_ratio, pump_ratio)
+        q, v = j.state[Q].tolist(), j.state[V].tolist()
+        self.q, self.qd = (q[0], q[1], q[2], q[3]), (v[0], v[1], v[2], v[3])
+        if self._n == 5:
             self.rotator_q, self.rotator_qd = q[4], v[4]
-        self.peak_pump_ratio = pump_ratio
-        self.tip = (tx, ty, tz)
-        self._tip_prev = (tpx, tpy, tpz)
-        self.grapple = (gx, gy, gz)
-        self._grapple_prev = (gpx, gpy, gpz)
+        tip, grapple = self._pend[TIP].tolist(), self._pend[GRAPPLE].tolist()
+        self.tip = (tip[0], tip[1], tip[2])
+        self.grapple = (grapple[0], grapple[1], grapple[2])
         self._h_last = h
         self.t += duration_s

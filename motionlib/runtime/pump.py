@@ -22,17 +22,18 @@ idealisation (no pressure dynamics of the pump's regulator) is an assumption.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from numba import njit
 
 
-def flow_share(x: Sequence[float], displacement: Sequence[float], pump_flow: float) -> float:
+@njit(cache=True)
+def flow_share(x, displacement, pump_flow: float) -> float:
     """The flow-sharing factor ``k = min(1, Q_pump / sum_i d_i |x_i|)`` (see the module docstring).
 
     Parameters
     ----------
-    x : sequence of 4 float
+    x : ndarray, shape (n,)
         Joint speeds the valves demand (rad/s, m/s for the telescope).
-    displacement : sequence of 4 float
+    displacement : ndarray, shape (n,)
         Oil volume per unit of joint motion ``d_i`` (m^3/rad, m^3/m), positive.
     pump_flow : float
         Pump flow ``Q_pump`` (m^3/s), positive.
@@ -43,6 +44,6 @@ def flow_share(x: Sequence[float], displacement: Sequence[float], pump_flow: flo
         ``k`` in (0, 1]; multiply every demanded speed by it.
     """
     demand = 0.0
-    for xi, di in zip(x, displacement, strict=True):
-        demand += di * (xi if xi >= 0.0 else -xi)
+    for i in range(x.shape[0]):
+        demand += displacement[i] * abs(x[i])
     return pump_flow / demand if demand > pump_flow else 1.0

@@ -1,0 +1,74 @@
+"""The simulated crane's ground contact (motionlib.runtime.contact) against closed forms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionlib.errors import InputError
+from motionlib.runtime.contact import ContactParams
+from motionlib.runtime.plant import SimParams, SimulatedCrane
+
+Q0 = np.array([0.3, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
+DT = 0.005
+
+
+def _resting(lab, depth_m: float, model: str = "first_order", **contact) -> SimulatedCrane:
+    """The grapple hanging ``depth_m`` below a ground plane, the crane at rest."""
+    sim = SimulatedCrane(lab, Q0, SimParams(model=model))
+    ground_z = sim.grapple[2] + depth_m
+    return SimulatedCrane(lab, Q0, SimParams(model=model, contact=ContactParams(ground_z=ground_z, **contact)))
+
+
+def test_static_penetration_gives_the_spring_force(lab):
+    """First-order joints at rest hold the tip; the rod holds the grapple d below the ground: f_z = k d."""
+    k, depth = 5.0e4, 0.004
+    sim = _resting(lab, depth, stiffness_n_m=k)
+    for _ in range(200):
+        sim.advance((0.0, 0.0, 0.0, 0.0), DT)
+    fx, fy, fz = sim.contact_force
+    assert fz == pytest.approx(k * depth, rel=1e-6)
+    assert abs(fx) < 1e-6 and abs(fy) < 1e-6
+    assert np.allclose(sim.qd, 0.0) and sim.swing_rad < 1e-6
+
+
+def test_no_contact_above_the_ground_and_without_the_option(lab):
+    above = _resting(lab, -0.01)
+    above.advance((0.0, 0.2, 0.0, 0.0), 1.0)  # boom up: away from the ground
+    assert above.contact_force == (0.0, 0.0, 0.0)
+    free = SimulatedCrane(lab, Q0, SimParams())
+    free.advance((0.0, -0.2, 0.0, 0.0), 1.0)
+    assert free.contact_force == (0.0, 0.0, 0.0)
+
+
+def _slide_under_a_slewing_tip(lab, **contact) -> tuple[float, float, SimulatedCrane]:
+    """The tip slews by ~1.5 cm above a grapple pressed 5 mm into the ground: (tip travel, grapple slide) (m)."""
+    sim = _resting(lab, 0.005, **contact)
+    start = np.array(sim.grapple)
+    sim.advance((0.005, 0.0, 0.0, 0.0), 1.0)
+    for _ in range(40):
+        sim.advance((0.0, 0.0, 0.0, 0.0), DT)
+    travel = float(np.linalg.norm(np.array(sim.tip[:2]) - start[:2]))
+    return travel, float(np.linalg.norm(np.array(sim.grapple[:2]) - start[:2])), sim
+
+
+def test_friction_holds_the_pressed_grapple_while_the_tip_moves_a_little(lab):
+    """Static friction: the rod's sideways push (~0.03 of the normal force) is inside the cone (mu = 0.5).
+
+    The grapple stays (it moves only by the rod's tilt, a small fraction of the tip's travel);
+    without friction the same push lets it slide along with the tip.
+    """
+    travel, slide, sim = _slide_under_a_slewing_tip(lab)
+    travel_free, slide_free, _ = _slide_under_a_slewing_tip(lab, friction=0.0)
+    print(f"tip travel {travel * 1000:.1f} mm: grapple slides {slide * 1000:.2f} mm (mu 0.5), "
+          f"{slide_free * 1000:.2f} mm (mu 0)")
+    assert travel > 0.01 and travel_free > 0.01
+    assert slide < 0.02 * travel
+    assert slide_free > 10.0 * slide
+    fx, fy, fz = sim.contact_force
+    assert 0.0 < np.hypot(fx, fy) <= 0.5 * fz
+
+
+def test_contact_needs_the_grapple_mass(lab):
+    with pytest.raises(InputError, match="grapple's mass"):
+        SimulatedCrane(lab, Q0, SimParams(load_mass_kg=0.0, contact=ContactParams()))
