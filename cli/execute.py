@@ -101,8 +101,8 @@ def execute(
 
 def _vision_options(target: str | None, gains: Any) -> Any:
     """``ExecuteOptions.vision`` from ``--vision-target`` (a name, or x,y,z) and ``--vision-gains``; None without."""
+    from motionlib import VisionOptions
     from motionlib.checks import parse_csv_floats
-    from motionlib.runtime.vision import VisionOptions
 
     if target is None:
         if gains is not None:

@@ -26,7 +26,7 @@ from motionlib.runtime.loop import run_closed_loop
 from motionlib.runtime.operators import PassiveOperator
 from motionlib.runtime.plant import SimulatedCrane
 from motionlib.runtime.resolved_rate import resolve_rate
-from motionlib.runtime.sources import CartesianJoystick
+from motionlib.runtime.sources import CartesianJoystick, PositionSource, StepContext
 from motionlib.runtime.vision import CameraParams, SimulatedCamera, VisionOptions, VisionSource, lens_rotation
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -141,16 +141,24 @@ def _one_step(crane: Crane, q: tuple, axes: tuple, vision_gains: tuple, vision_o
     return cmd, ctrl.status.c_a, goal, target
 
 
-def _expected(crane: Crane, q: tuple, axes: tuple, c_a: float, goal, target, k_v) -> np.ndarray:
-    """Each source's rate from its definition, summed (000 eq. 4), resolved (000 eq. 2) with numpy."""
+def _closed_forms(crane: Crane, q: tuple, axes: tuple, goal, target, k_v) -> dict[str, np.ndarray]:
+    """Each source's tip rate (3,) (m/s) from its definition."""
     p = np.array(crane.fk(q))
-    stick = np.array([0.3, 0.5, 0.7]) * [axes[0], axes[1], axes[3]]  # base mapping: left_x, left_y, right_y
-    accommodation = np.array([2e-4, 3e-4, 5e-4]) * [10.0, -20.0, 30.0]  # K_F (F_DES - F_S), F_S = -f
-    position = np.array([1.1, 0.9, 1.3]) * (goal - p)  # K_P (goal - p) (001 section 2.3)
     rot = np.array(lens_rotation(q[0]))
     error_l = rot.T @ (np.array(target) - p) - [0.0, 0.0, 0.8]  # C - R in lens coordinates
-    vision = rot @ (np.asarray(k_v) * error_l)  # R_BL K_V E (001 section 2.4); lens at the tip: eq. 1 is identity
-    ps = c_a * (position + vision) + stick + accommodation
+    return {
+        "stick": np.array([0.3, 0.5, 0.7]) * [axes[0], axes[1], axes[3]],  # base mapping: left_x, left_y, right_y
+        "accommodation": np.array([2e-4, 3e-4, 5e-4]) * [10.0, -20.0, 30.0],  # K_F (F_DES - F_S), F_S = -f
+        "position": np.array([1.1, 0.9, 1.3]) * (goal - p),  # K_P (goal - p) (001 section 2.3)
+        # R_BL K_V E (001 section 2.4); the lens at the tip: eq. 1 is the identity
+        "vision": rot @ (np.asarray(k_v) * error_l),
+    }
+
+
+def _expected(crane: Crane, q: tuple, axes: tuple, c_a: float, goal, target, k_v) -> np.ndarray:
+    """Each source's rate from its definition, summed (000 eq. 4), resolved (000 eq. 2) with numpy."""
+    r = _closed_forms(crane, q, axes, goal, target, k_v)
+    ps = c_a * (r["position"] + r["vision"]) + r["stick"] + r["accommodation"]
     jac = crane.jacobian(np.array(q))
     w = np.minimum(-crane.qd_min, crane.qd_max) ** 2  # nominal weights, q away from the limits
     prm = ControllerParams()
@@ -166,6 +174,14 @@ def test_all_sources_at_once_sum_in_the_junction(lab):
     k_v = (0.7, 1.3, 0.5)
     cmd, c_a, goal, target = _one_step(lab, Q, AXES, k_v)
     assert 0.5 < c_a < 1.0  # the mixer weighs the automation (000 eq. 4)
+    # each source alone, called on the step's context, gives its closed form
+    stick, acc, vision, _ = _sources(lab, Q, k_v)
+    position = PositionSource(goal, gains=(1.1, 0.9, 1.3), v_max_m_s=10.0)
+    ctx = StepContext()
+    ctx.q, ctx.axes, (ctx.p, ctx.jac) = Q, AXES, TipKinematics(lab).tip_jacobian(*Q)
+    refs = _closed_forms(lab, Q, AXES, goal, target, k_v)
+    for name, src in (("stick", stick), ("accommodation", acc), ("position", position), ("vision", vision)):
+        np.testing.assert_allclose(src.rate(ctx), refs[name], rtol=0, atol=1e-12, err_msg=name)
     expected = _expected(lab, Q, AXES, c_a, goal, target, k_v)
     np.testing.assert_allclose(cmd, expected, rtol=0, atol=1e-12)
     # every source mattered: leaving out the vision's rate changes the command
