@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from .options import RUN_TIME_LIMIT_S, json_option, mode_option, vector_option
+from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, json_option, mode_option, vector_option
 from .output import emit_json
 
 
@@ -38,12 +38,17 @@ from .output import emit_json
               "log_end or a scene frame; 001 eq. 1); with a stick script or the passive operator.")
 @click.option("--stick-crf", metavar="NAME", help="M4-M6: the stick's axes along this frame's x, y, z (base, slew or a "
               "scene view frame) instead of the cylindrical mapping.")
+@click.option("--vision-target", metavar="NAME|x,y,z", help="M2, M3, M5, M6: a camera on the grapple sees this "
+              "point (a scene point or obstacle name, e.g. a log, or x,y,z in m) and the vision source (001 section "
+              "2.4) adds its rate to the automation's, centring the grapple above it.")
+@vector_option("vision-gains", 3, "K_V per camera axis (1/s; along the boom, to its right, down; 0 disables an axis). "
+               "Default 1,1,1.")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
     library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    stick_mrf, stick_crf, log_path, as_json, plot_dir,
+    stick_mrf, stick_crf, vision_target, vision_gains, log_path, as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import ExecuteOptions, Library, execute
@@ -52,13 +57,14 @@ def execute(
     from motionlib.runtime.plant import SimParams
 
     operator_kind(operator_spec)  # fail early on a bad --operator
+    vision = _vision_options(vision_target, vision_gains)
     lib = Library.open(library)
     selection = lib.select(target, current, utility).raise_for_status(str(library))
     row = int(selection.indices[0])
     controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                              sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
-                             stick_crf=stick_crf)
+                             stick_crf=stick_crf, vision=vision)
     entry = int(lib.entry[row])
     run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
                   start_q=current, options=options,
@@ -76,6 +82,8 @@ def execute(
         "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
         "log": str(log_path) if log_path else None,
     }
+    if vision is not None:
+        report["vision_target"] = run.log.attrs["vision_target"]
     if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
         report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
         report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
@@ -89,6 +97,23 @@ def execute(
         emit_json(report)
         return
     _print_report(report)
+
+
+def _vision_options(target: str | None, gains: Any) -> Any:
+    """``ExecuteOptions.vision`` from ``--vision-target`` (a name, or x,y,z) and ``--vision-gains``; None without."""
+    from motionlib import VisionOptions
+    from motionlib.checks import parse_csv_floats
+
+    if target is None:
+        if gains is not None:
+            raise click.UsageError("--vision-gains needs --vision-target")
+        return None
+    spec: str | tuple[float, ...] = target.strip()
+    if "," in target:
+        spec = tuple(parse_csv_floats(target, 3, "--vision-target", VECTOR_LIMIT).tolist())
+    if gains is None:
+        return VisionOptions(spec)  # type: ignore[arg-type]
+    return VisionOptions(spec, gains=tuple(gains.tolist()))  # type: ignore[arg-type]
 
 
 def _fmt(value: Any, unit: str, digits: int = 3) -> str:
@@ -108,6 +133,8 @@ def _print_report(s: dict[str, Any]) -> None:
     click.echo(f"  max deviation     {_fmt(s['max_deviation_m'], 'm')}")
     click.echo(f"  handover          {_fmt(s['handover_time_s'], 's', 2)}; arrival {_fmt(s['arrival_time_s'], 's', 2)}")
     click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}")
+    if "vision_target" in s:
+        click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")

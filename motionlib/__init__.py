@@ -84,6 +84,7 @@ _EXPORTS: dict[str, str] = {
     "Mode": "motionlib.runtime.control_types",
     "RunResult": "motionlib.runtime.execute",
     "ExecuteOptions": "motionlib.runtime.execute",
+    "VisionOptions": "motionlib.runtime.vision",
     "DualScenario": "motionlib.runtime.dual_scenario",
     "DualOptions": "motionlib.runtime.dual",
     "DualResult": "motionlib.runtime.dual",
@@ -119,6 +120,7 @@ __all__ = [
     "Mode",
     "RunResult",
     "ExecuteOptions",
+    "VisionOptions",
     "DualScenario",
     "DualOptions",
     "DualResult",
@@ -154,6 +156,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .runtime.dual import DualOptions, DualResult, DualStatus, execute_dual
     from .runtime.dual_scenario import DualScenario
     from .runtime.execute import ExecuteOptions, RunResult, execute
+    from .runtime.vision import VisionOptions
     from .viz.viewer import ViewOptions, write_view
 
 

@@ -11,7 +11,11 @@ sources
 frames_source
     :class:`~.frames_source.FrameSource`: any Cartesian source acting on an MRF in a CRF (001 eq. 1).
 vision
-    A simulated camera on the grapple and the vision source (001 section 2.4).
+    A simulated camera on the grapple and the vision source (001 section 2.4); ``VisionOptions``
+    and :func:`~.vision.vision_source` for ``execute``.
+sensors
+    The per-step sensor hook of the closed loop: objects with ``sense(sim) -> None``, called with
+    the simulated crane before the operator and the controller act (the camera; force sensors).
 contact
     Ground contact of the grapple (penalty spring-damper), computed outside the plant.
 accommodation
@@ -44,7 +48,7 @@ rotator
     The grapple rotator's axis of the summing junction: the operator's rotator stick and the
     automation's planned rotator profile.
 loop
-    :func:`~.loop.run_closed_loop`: controller + plant + operator at the control rate.
+    :func:`~.loop.run_closed_loop`: sensors + controller + plant + operator at the control rate.
 runlog
     The 200 Hz run log and its HDF5 file.
 metrics

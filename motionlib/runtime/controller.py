@@ -11,7 +11,9 @@ states and joystick samples. One step:
 2. **Sources** (:mod:`motionlib.runtime.sources`, 001 Fig. 1): the enabled operator sources give
    ``p_o`` (Cartesian operation) or joint rates ``qd_o`` (joint operation, mapped to
    ``p_o = J qd_o``, 000 eq. 1); the enabled automation sources (path tracker, position
-   controller) give ``p_a`` and a null-space reference ``z``.
+   controller, vision source: :meth:`SharedController.start_motion`, :meth:`~SharedController.go_to`,
+   :meth:`~SharedController.start_source`, or :meth:`~SharedController.add_source` alongside the
+   motion) give ``p_a`` and a null-space reference ``z`` while a motion is in control.
 3. **Mode** (000 section 3.3): M1 manual joint, M2 traded + joint, M3 shared + joint,
    M4 manual Cartesian, M5 traded + Cartesian, M6 shared + Cartesian. *Traded*: the
    operator has no effect while the automated motion runs; it ends on arrival or when the
@@ -294,6 +296,32 @@ class SharedController:
             self.rotator.plan = None
         self._motion_end = source.goal
         self._begin(source, t, f"go to {list(source.goal)}")
+        return source
+
+    def start_source(self, source: RateSource, t: float = 0.0) -> RateSource:
+        """A new automation command driven by ``source``, an automation source that reports its arrival.
+
+        The source (e.g. :class:`~motionlib.runtime.vision.VisionSource`, 001 section 2.4) is the
+        motion: it is summed into ``p_a`` with any other connected automation sources while the
+        motion is in control, and its :meth:`~motionlib.runtime.sources.RateSource.arrived` ends it.
+        Its end point is not known to the controller (:attr:`motion_end_p` is None). In manual modes
+        (M1, M4) the motion is accepted but has no effect.
+
+        Raises
+        ------
+        InputError
+            Not a Cartesian automation source, or another connected source has its name.
+        """
+        if not isinstance(source, RateSource) or source.role != "automation" or source.space != "cartesian":
+            raise InputError(f"source: expected a Cartesian automation RateSource, got {source!r}")
+        if any(s.name == source.name and s is not self._motion for s in self.sources):
+            raise InputError(f"source: a source named {source.name!r} is already connected")
+        self.tracker = None
+        if self.rotator is not None:
+            self.rotator.plan = None
+        self._motion_end = None
+        source.reset()
+        self._begin(source, t, f"source {source.name!r}")
         return source
 
     def _begin(self, source: RateSource, t: float, detail: str) -> None:

@@ -12,7 +12,7 @@ settles or the time limit, and measures the run (:func:`~motionlib.runtime.metri
 from __future__ import annotations
 
 import enum
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -34,7 +34,9 @@ from .mixer import MixerParams, ObstacleGuard
 from .operators import Operator, make_operator, operator_kind
 from .plant import SimParams, SimulatedCrane
 from .runlog import RunLog, write_runlog
+from .sensors import Sensor, sense_calls
 from .tracker import TrackerParams
+from .vision import VisionOptions, VisionSource, tip_goal, vision_source
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,14 @@ class ExecuteOptions:
         :func:`~motionlib.runtime.frames_source.stick_in_frames`). None, None: the tip, with the
         cylindrical mapping in the base frame. The model operators aim the tip, so other frames
         take a stick script or the passive operator.
+    vision : VisionOptions or None
+        A camera on the grapple (or at the tip) and the vision source (001 section 2.4,
+        :func:`~motionlib.runtime.vision.vision_source`; its camera's seed is replaced by ``seed``),
+        in the automation modes (M2, M3, M5, M6). With a trajectory it is summed with the path
+        tracker in the automation's rate ``p_a`` while the motion is in control (001 section 2.6;
+        competing goals are for the gains to arbitrate: a zero ``K_V`` disables an axis), the
+        tracker's arrival ending the motion; without one it is the motion itself and ends on its
+        own arrival. The camera is fed through the loop's sensor hook (:mod:`motionlib.runtime.sensors`).
     """
 
     seed: int = 0
@@ -73,9 +83,12 @@ class ExecuteOptions:
     loop: LoopOptions = field(default_factory=LoopOptions)
     stick_mrf: str | None = None
     stick_crf: str | None = None
+    vision: VisionOptions | None = None
 
     def __post_init__(self) -> None:
         check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
+        if self.vision is not None and not isinstance(self.vision, VisionOptions):
+            raise InputError(f"vision: expected VisionOptions or None, got {type(self.vision).__name__}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
             raise InputError(f"seed: expected an integer >= 0, got {self.seed!r}")
 
@@ -187,6 +200,7 @@ def execute(
     start_q: Any = None,
     options: ExecuteOptions | None = None,
     log_attrs: Mapping[str, Any] | None = None,
+    sensors: Iterable[Sensor] | None = None,
 ) -> RunResult:
     """Run ``trajectory`` in the shared-control loop on the simulated crane (000 sections 2-3).
 
@@ -205,12 +219,16 @@ def execute(
         with ``input(obs) -> OperatorInput`` and ``done(obs) -> bool``
         (:mod:`motionlib.runtime.operators`).
     target : array_like, shape (3,), optional
-        The operator's target tip point (m); default the trajectory's end.
+        The operator's target tip point (m); default the trajectory's end, or without one the
+        vision source's goal for the tip (``options.vision``).
     start_q : array_like, shape (4,), optional
         Start configuration of the crane (rad, rad, rad, m); default the trajectory's start.
     options : ExecuteOptions, optional
     log_attrs : mapping, optional
         Extra attributes stored with the run log (e.g. the library and row it came from).
+    sensors : sequence of Sensor, optional
+        More sensors for the loop's hook (objects with ``sense(sim)``, :mod:`motionlib.runtime.sensors`),
+        called each step after the vision source's camera.
 
     Returns
     -------
@@ -219,10 +237,20 @@ def execute(
     Raises
     ------
     InputError
-        Bad mode, operator, target or start configuration.
+        Bad mode, operator, target, start configuration, vision target or sensor.
     """
     opts = options or ExecuteOptions()
     mode = Mode.parse(mode)
+    sense_calls(sensors)  # fail early on a bad sensor
+    extra_sensors: list[Sensor] = list(sensors) if sensors is not None else []
+    vision: VisionSource | None = None
+    if opts.vision is not None:
+        if mode.authority == "manual":
+            raise InputError(f"vision: the vision source is automation; mode {mode.value} is manual (use M2, M3, "
+                             "M5 or M6)")
+        vision = vision_source(crane, scene, opts.vision, seed=opts.seed)
+    if target is None and trajectory is None and vision is not None:
+        target = tip_goal(crane, vision)
     if trajectory is None and (target is None or start_q is None):
         raise InputError("execute: without a trajectory, give both target and start_q")
     target_p = check_vector(target if target is not None else trajectory.path_tip[-1], 3, "target")  # type: ignore[union-attr]
@@ -237,6 +265,10 @@ def execute(
                                   rotator0=rotator0 if crane.rotator is not None else 0.0)
     if trajectory is not None:
         controller.start_motion(trajectory)
+        if vision is not None:
+            controller.add_source(vision)  # summed with the tracker (001 section 2.6)
+    elif vision is not None:
+        controller.start_source(vision)
     if isinstance(operator, str | Path):
         if operator_kind(str(operator)) == "preset" and (opts.stick_mrf is not None or opts.stick_crf is not None):
             raise InputError("operator: the model operators aim the tip; with a stick MRF/CRF give a stick script")
@@ -254,12 +286,15 @@ def execute(
             "noise": opts.sim.noise_frac,
             "scene": scene.name,
             "loaded": loaded,
+            **({"vision_target": list(vision.camera.target)} if vision is not None else {}),
             **dict(log_attrs or {}),
         }
     )
-    loop = run_closed_loop(controller, sim, op, opts.loop_options(), log)
+    cameras: list[Sensor] = [vision.camera] if vision is not None else []
+    loop = run_closed_loop(controller, sim, op, opts.loop_options(), log, sensors=cameras + extra_sensors)
     arrays = log.arrays(crane)
     summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT
     reason = "" if loop.settled else f"the tip had not settled after the time limit of {opts.time_limit_s:g} s"
     return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory)
+

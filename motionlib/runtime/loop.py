@@ -3,12 +3,14 @@
 :func:`run_closed_loop` runs a :class:`~motionlib.runtime.controller.SharedController`, a
 :class:`~motionlib.runtime.plant.SimulatedCrane` and an operator model at the control rate
 until the tip settles (or a time limit), filling a :class:`~motionlib.runtime.runlog.RunLog`.
+Sensors (:mod:`motionlib.runtime.sensors`) read the plant at the start of every step.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,6 +20,7 @@ from .controller import SharedController
 from .operators import Observation, Operator
 from .plant import SimulatedCrane
 from .runlog import RunLog
+from .sensors import Sensor, sense_calls
 
 
 @dataclass(frozen=True)
@@ -80,10 +83,13 @@ def run_closed_loop(
     operator: Operator,
     options: LoopOptions | None = None,
     log: RunLog | None = None,
+    *,
+    sensors: Iterable[Sensor] | None = None,
 ) -> LoopResult:
     """Run controller + simulated crane + operator at the control rate until the tip settles.
 
-    Each step: the operator samples its stick from what it sees (:class:`motionlib.runtime.operators.Observation`),
+    Each step: the sensors read the simulated crane (:mod:`motionlib.runtime.sensors`), the
+    operator samples its stick from what it sees (:class:`motionlib.runtime.operators.Observation`),
     the controller turns the measured state and that sample into a joint velocity command,
     the log records the step, and the simulator holds the command for one control period.
     Start an automated motion with :meth:`SharedController.start_motion` before calling.
@@ -97,12 +103,16 @@ def run_closed_loop(
     options : LoopOptions, optional
     log : RunLog, optional
         Log to fill (default a new one).
+    sensors : sequence of Sensor, optional
+        Objects with ``sense(sim) -> None``, called in order once per step with ``sim`` before the
+        operator and the controller act (e.g. the vision source's camera).
 
     Returns
     -------
     LoopResult
     """
     opts = options or LoopOptions()
+    senses = sense_calls(sensors)
     dt = controller.params.dt_s
     log = RunLog() if log is None else log
     n_max = int(math.ceil(opts.time_limit_s / dt))
@@ -117,6 +127,9 @@ def run_closed_loop(
     t0 = time.perf_counter()
     steps = 0
     for steps in range(1, n_max + 1):  # noqa: B007 (steps is reported)
+        if senses:  # the sensor hook (:mod:`motionlib.runtime.sensors`)
+            for sense in senses:
+                sense(sim)
         state = sim.state()
         vx, vy, vz = sim.tip_velocity
         q, qd = sim.q, sim.qd

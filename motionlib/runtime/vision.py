@@ -15,6 +15,11 @@ K_V"), with ``R_BL`` the lens orientation at capture time; moving the lens by ``
 measurement by ``-R_BL^T v``, so each axis's error decays as ``exp(-K_V t)``. The lens rate is
 then transformed from the lens to the tip by 001 eq. 1 (:func:`motionlib.model.frames.tip_rate_for`)
 before it goes to the summing junction. A zero gain disables an axis (001 section 2.6).
+
+In :func:`~motionlib.runtime.execute.execute` (``ExecuteOptions.vision``, :class:`VisionOptions`)
+the camera is a sensor of the closed loop (:mod:`motionlib.runtime.sensors`): each control step it
+places the lens by the plant's true tip and slew (:meth:`SimulatedCamera.sense`), and the source
+(``capture=False``) reads the delivered measurements. :func:`vision_source` builds both.
 """
 
 from __future__ import annotations
@@ -22,11 +27,14 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..checks import as_vec3, check_int, check_params, check_scalar, check_vector, param
+from ..errors import InputError
 from ..model.frames import Mat3, mrf_position, rotate, tip_rate_for
+from ..model.kinematics import Crane
+from ..model.scene import Scene
 from .sources import RateSource, StepContext, Vec3
 
 
@@ -100,13 +108,23 @@ class SimulatedCamera:
         The target point (m, base frame); :attr:`target` may be moved later.
     params : CameraParams, optional
     offset : array_like, shape (3,)
-        Lens position relative to the tip in the grapple frame G (m); default at the tip.
+        Lens position relative to the mount point, in G's axes (m); default at the mount point.
+    mount : {"tip", "grapple"}
+        ``tip``: the lens is carried rigidly by G (at the tip plus ``offset``). ``grapple``: the
+        lens is at the plant's swinging grapple point (the end of the pendulum rod,
+        ``grapple_length`` below the tip at rest) plus ``offset``, held level and along the heading
+        (a gimballed camera; an assumption); only the sensor hook (:meth:`sense`) knows that point.
     """
 
-    def __init__(self, target: Any, params: CameraParams | None = None, offset: Any = (0.0, 0.0, 0.0)):
+    def __init__(
+        self, target: Any, params: CameraParams | None = None, offset: Any = (0.0, 0.0, 0.0), mount: str = "tip"
+    ):
         self.params = params or CameraParams()
         self.target: Vec3 = as_vec3(check_vector(target, 3, "target"))
         self.offset: Vec3 = as_vec3(check_vector(offset, 3, "offset"))
+        if mount not in ("tip", "grapple"):
+            raise InputError(f"mount: expected 'tip' or 'grapple', got {mount!r}")
+        self.mount = mount
         self._rng = random.Random(int(self.params.seed))
         self._pending: deque[tuple[float, CameraFrame]] = deque()
         self._latest: CameraFrame | None = None
@@ -122,8 +140,17 @@ class SimulatedCamera:
             x * x + y * y + z * z
         ) <= prm.range_max_m
 
+    def sense(self, sim: Any) -> None:
+        """The sensor hook (:mod:`motionlib.runtime.sensors`): a picture from the plant's true pose, if one is due.
+
+        ``sim`` is the :class:`~motionlib.runtime.plant.SimulatedCrane`: the lens is placed by its
+        mount point (``sim.tip``, or ``sim.grapple`` for the grapple mount) and slew ``sim.q[0]``
+        at ``sim.t`` (:meth:`capture`).
+        """
+        self.capture(sim.t, sim.grapple if self.mount == "grapple" else sim.tip, sim.q[0])
+
     def capture(self, t: float, tip: Vec3, q1: float) -> None:
-        """Take a picture at time ``t`` (s) if one is due, with the tip at ``tip`` (3,) (m) and slew ``q1`` (rad)."""
+        """Take a picture at time ``t`` (s) if one is due, the mount point at ``tip`` (3,) (m) and slew ``q1`` (rad)."""
         if t < self._next_capture:
             return
         prm = self.params
@@ -171,7 +198,14 @@ class VisionSource(RateSource):
     v_max_m_s : float
         Largest commanded lens speed (m/s); the direction is kept.
     arrive_tol_m, arrive_speed_m_s : float
-        Arrived when the measured error is below this (m) and the tip slower than this (m/s).
+        Arrived when the measured error (the mean of the last ``arrive_frames`` frames, over the
+        axes with a non-zero gain) is below this (m) and the tip slower than this (m/s).
+    capture : bool
+        Take the pictures in :meth:`rate`, placing the lens by the controller's tip (True: for a
+        loop without the sensor hook), or leave them to the camera's sensor hook
+        (:meth:`SimulatedCamera.sense`, False: the loop passes the camera as a sensor).
+    arrive_frames : int
+        Frames averaged for arrival: the mean of ``n`` measurements has ``1 / sqrt(n)`` of the noise.
 
     Attributes
     ----------
@@ -192,9 +226,19 @@ class VisionSource(RateSource):
         enabled: bool = True,
         arrive_tol_m: float = 0.03,
         arrive_speed_m_s: float = 0.02,
+        capture: bool = True,
+        arrive_frames: int = 1,
     ):
         super().__init__(name, gains, enabled)
+        if not isinstance(camera, SimulatedCamera):
+            raise InputError(f"camera: expected a SimulatedCamera, got {type(camera).__name__}")
         self.camera = camera
+        self.capture = bool(capture)
+        if self.capture and camera.mount != "tip":
+            raise InputError("capture: a camera on the swinging grapple needs the sensor hook (capture=False)")
+        check_int(arrive_frames, "arrive_frames", lo=1)
+        self._errors: deque[Vec3] = deque(maxlen=int(arrive_frames))
+        self._last_frame: CameraFrame | None = None
         self.goal: Vec3 = as_vec3(check_vector(goal_l, 3, "goal_l"))
         self.v_max = check_scalar(v_max_m_s, "v_max_m_s", gt=0.0)
         self.arrive_tol = check_scalar(arrive_tol_m, "arrive_tol_m", gt=0.0)
@@ -204,15 +248,26 @@ class VisionSource(RateSource):
     def rate(self, ctx: StepContext) -> Vec3:
         cam = self.camera
         q1 = ctx.q[0]
-        cam.capture(ctx.t, ctx.p, q1)
+        if self.capture:
+            cam.capture(ctx.t, ctx.p, q1)
         frame = cam.latest(ctx.t)
         self.visible = frame is not None
         if frame is None:
             self.dist_end_m = math.inf
+            self._errors.clear()
             return (0.0, 0.0, 0.0)
         m, g, k = frame.target_l, self.goal, self.gains
         e = (m[0] - g[0], m[1] - g[1], m[2] - g[2])
-        self.dist_end_m = math.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+        errors = self._errors
+        if frame is not self._last_frame:
+            self._last_frame = frame
+            errors.append(e)
+        if len(errors) < (errors.maxlen or 1):
+            self.dist_end_m = math.inf  # not enough frames for arrival yet
+        else:
+            n = len(errors)
+            mean = [sum(x[i] for x in errors) / n if k[i] != 0.0 else 0.0 for i in range(3)]
+            self.dist_end_m = math.sqrt(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2])
         v = rotate(lens_rotation(frame.q1), (k[0] * e[0], k[1] * e[1], k[2] * e[2]))
         speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
         if speed > self.v_max:
@@ -222,3 +277,120 @@ class VisionSource(RateSource):
 
     def arrived(self, ctx: StepContext) -> bool:
         return self.visible and self.dist_end_m <= self.arrive_tol and ctx.tip_speed <= self.arrive_speed
+
+    def reset(self) -> None:
+        self._errors.clear()
+        self._last_frame = None
+
+
+@dataclass(frozen=True)
+class VisionOptions:
+    """The vision source of a run (:func:`motionlib.runtime.execute.execute`, ``ExecuteOptions.vision``).
+
+    The camera looks down from its mount and is fed through the loop's sensor hook
+    (:mod:`motionlib.runtime.sensors`); the source wants the target straight below the lens, the
+    grapple's bottom ``clearance_m`` above it: ``goal_l = (0, 0, clearance_m)`` on the grapple,
+    ``(0, 0, grapple_length + clearance_m)`` at the tip.
+
+    Attributes
+    ----------
+    target : str or tuple of 3 float
+        What the camera looks for: the name of a scene point or of a scene obstacle (its centre,
+        e.g. a log's), or a point ``(x, y, z)`` (m, base frame).
+    gains : tuple of 3 float
+        ``K_V`` per lens axis (1/s; x along the boom's heading, y to its right, z down), each >= 0;
+        0 disables an axis (001 section 2.6).
+    clearance_m : float
+        Height (m) of the grapple's bottom above the target at the goal.
+    mount : {"grapple", "tip"}
+        Where the camera is (:class:`SimulatedCamera`): on the swinging grapple (level, along the
+        heading; it sees where the grapple really is) or rigidly at the tip.
+    camera : CameraParams
+        Noise, latency, frame rate, field of view, range; its ``seed`` is replaced by the run's.
+    v_max_m_s : float
+        Largest commanded lens speed (m/s).
+    arrive_tol_m : float
+        Arrival: the mean measured error of the last ``arrive_frames`` frames is below this (m) ...
+    arrive_frames : int
+        ... (frames averaged) and the tip slower than ``arrive_speed_m_s`` (m/s).
+    arrive_speed_m_s : float
+    enabled : bool
+        The source's software switch (001 section 2.6).
+    """
+
+    target: str | tuple[float, float, float]
+    gains: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    clearance_m: float = param(0.2, ge=0.0)
+    mount: str = "grapple"
+    camera: CameraParams = CameraParams()
+    v_max_m_s: float = param(0.4, gt=0.0)
+    arrive_tol_m: float = param(0.01, gt=0.0)
+    arrive_frames: int = 15
+    arrive_speed_m_s: float = param(0.02, gt=0.0)
+    enabled: bool = True
+
+    def __post_init__(self) -> None:
+        check_params(self)
+        if isinstance(self.target, str):
+            if not self.target:
+                raise InputError("vision target: expected a scene point or obstacle name, or x,y,z; got ''")
+        else:
+            object.__setattr__(self, "target", as_vec3(check_vector(self.target, 3, "vision target")))
+        gains = as_vec3(check_vector(self.gains, 3, "vision gains"))
+        if any(g < 0.0 for g in gains):
+            raise InputError(f"vision gains: expected K_V >= 0 (1/s), got {list(gains)}")
+        object.__setattr__(self, "gains", gains)
+        if not isinstance(self.camera, CameraParams):
+            raise InputError(f"vision camera: expected CameraParams, got {type(self.camera).__name__}")
+        check_int(self.arrive_frames, "arrive_frames", lo=1, hi=10_000)
+        if self.mount not in ("grapple", "tip"):
+            raise InputError(f"vision mount: expected 'grapple' or 'tip', got {self.mount!r}")
+        if not isinstance(self.enabled, bool):
+            raise InputError(f"vision enabled: expected True or False, got {self.enabled!r}")
+
+
+def target_point(scene: Scene, target: str | tuple[float, float, float]) -> Vec3:
+    """The point (3,) (m, base frame) a vision target names: a scene point, a scene obstacle's centre, or itself.
+
+    Raises
+    ------
+    InputError
+        A name that is neither a point nor an obstacle of ``scene`` (the message lists both).
+    """
+    if not isinstance(target, str):
+        return as_vec3(check_vector(target, 3, "vision target"))
+    if target in scene.points:
+        return as_vec3(scene.point(target))
+    obstacles = {o.name: o for o in scene.obstacles}
+    if target in obstacles:
+        return as_vec3(obstacles[target].xyz)
+    known = ", ".join(sorted(scene.points)) or "none"
+    known_o = ", ".join(sorted(obstacles)) or "none"
+    raise InputError(f"vision target: scene {scene.name!r} has no point or obstacle {target!r} "
+                     f"(points: {known}; obstacles: {known_o})")
+
+
+def vision_source(crane: Crane, scene: Scene, options: VisionOptions, seed: int = 0) -> VisionSource:
+    """The vision source of ``options`` for ``crane`` in ``scene``, its camera to be fed by the sensor hook.
+
+    Returns a :class:`VisionSource` with ``capture=False``: pass its ``camera`` to the loop as a
+    sensor (:func:`motionlib.runtime.loop.run_closed_loop`, ``sensors``).
+    """
+    if not isinstance(options, VisionOptions):
+        raise InputError(f"vision: expected VisionOptions, got {type(options).__name__}")
+    camera = SimulatedCamera(target_point(scene, options.target), replace(options.camera, seed=seed),
+                             mount=options.mount)
+    depth = options.clearance_m + (crane.model.grapple_length if options.mount == "tip" else 0.0)
+    return VisionSource(camera, (0.0, 0.0, depth), options.gains, options.v_max_m_s, enabled=options.enabled,
+                        arrive_tol_m=options.arrive_tol_m, arrive_speed_m_s=options.arrive_speed_m_s,
+                        capture=False, arrive_frames=options.arrive_frames)
+
+
+def tip_goal(crane: Crane, source: VisionSource) -> Vec3:
+    """Where the tip is at rest at the goal of a :func:`vision_source` (3,) (m, base frame).
+
+    The target plus ``grapple_length + clearance``: the grapple hangs still under the tip.
+    """
+    t = source.camera.target
+    depth = source.goal[2] + (crane.model.grapple_length if source.camera.mount == "grapple" else 0.0)
+    return (t[0], t[1], t[2] + depth)

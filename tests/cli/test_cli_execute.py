@@ -130,3 +130,25 @@ def test_bad_input_is_one_line(library, args, message):
 def test_missing_library(tmp_path: Path):
     code, out = _run("execute", str(tmp_path / "none.h5"), "--target", "1,1,1")
     assert code != 0 and "no such library file" in out
+
+
+def test_vision_target_by_point_and_by_name_and_a_bad_name(library):
+    """``--vision-target``: the camera on the grapple adds its rate to the tracker's (001 sections 2.4, 2.6)."""
+    path, ends = library
+    target = ",".join(map(str, ends[1]))  # the "pickup-a" entry's end
+    below = ",".join(map(str, ends[1] - [0.0, 0.0, 0.75]))  # on the floor under it
+    code, out = _run("execute", str(path), "--target", target, "--vision-target", below, "--vision-gains", "1,1,0",
+                     "--json", "--time-limit", "30")
+    assert code == 0, out
+    summary = json.loads(out)
+    assert summary["settled"] and np.allclose(summary["vision_target"], ends[1] - [0.0, 0.0, 0.75])
+    assert summary["final_error_m"] < 0.05
+    code, out = _run("execute", str(path), "--target", target, "--vision-target", "log-a1", "--time-limit", "2")
+    assert code == 0, out
+    assert "vision target     0.000, 2.800, 0.100 m" in out  # the log's centre
+    code, out = _run("execute", str(path), "--target", target, "--vision-target", "nosuch")
+    assert code != 0
+    lines = out.strip().splitlines()
+    assert len(lines) == 1 and "no point or obstacle 'nosuch'" in lines[0] and "Traceback" not in out
+    code, out = _run("execute", str(path), "--target", target, "--vision-gains", "1,1,1")
+    assert code != 0 and "--vision-gains needs --vision-target" in out
