@@ -43,28 +43,38 @@ from .output import emit_json
               "2.4) adds its rate to the automation's, centring the grapple above it.")
 @vector_option("vision-gains", 3, "K_V per camera axis (1/s; along the boom, to its right, down; 0 disables an axis). "
                "Default 1,1,1.")
+@click.option("--accommodation", "force_bound", type=click.FloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
+              help="Force accommodation (001 section 2.5) with the ground contact on: a steady push of the stick "
+              "into the ground settles at 0.8 of this force (N).")
+@click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
+              help="Base axes of the accommodation (any of x, y, z).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
     library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    stick_mrf, stick_crf, vision_target, vision_gains, log_path, as_json, plot_dir,
+    stick_mrf, stick_crf, vision_target, vision_gains, force_bound, accommodation_axes, log_path, as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
-    from motionlib import ExecuteOptions, Library, execute
+    from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.runtime.control_types import ControllerParams
     from motionlib.runtime.operators import operator_kind
     from motionlib.runtime.plant import SimParams
 
     operator_kind(operator_spec)  # fail early on a bad --operator
     vision = _vision_options(vision_target, vision_gains)
+    accommodation = None
+    if force_bound is not None:
+        accommodation = AccommodationOptions(force_bound, axes=accommodation_axes)
+    elif accommodation_axes != "xyz":
+        raise click.UsageError("--accommodation-axes needs --accommodation")
     lib = Library.open(library)
     selection = lib.select(target, current, utility).raise_for_status(str(library))
     row = int(selection.indices[0])
     controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                              sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
-                             stick_crf=stick_crf, vision=vision)
+                             stick_crf=stick_crf, vision=vision, accommodation=accommodation)
     entry = int(lib.entry[row])
     run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
                   start_q=current, options=options,
@@ -84,6 +94,8 @@ def execute(
     }
     if vision is not None:
         report["vision_target"] = run.log.attrs["vision_target"]
+    if accommodation is not None:
+        report["peak_contact_force_n"] = run.loop.diagnostics["peak_contact_force_n"]
     if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
         report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
         report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
@@ -135,6 +147,8 @@ def _print_report(s: dict[str, Any]) -> None:
     click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}")
     if "vision_target" in s:
         click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m")
+    if "peak_contact_force_n" in s:
+        click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground)")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")

@@ -85,6 +85,7 @@ _EXPORTS: dict[str, str] = {
     "RunResult": "motionlib.runtime.execute",
     "ExecuteOptions": "motionlib.runtime.execute",
     "VisionOptions": "motionlib.runtime.vision",
+    "AccommodationOptions": "motionlib.runtime.accommodation",
     "DualScenario": "motionlib.runtime.dual_scenario",
     "DualOptions": "motionlib.runtime.dual",
     "DualResult": "motionlib.runtime.dual",
@@ -121,6 +122,7 @@ __all__ = [
     "RunResult",
     "ExecuteOptions",
     "VisionOptions",
+    "AccommodationOptions",
     "DualScenario",
     "DualOptions",
     "DualResult",
@@ -152,6 +154,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.scene import Scene
     from .planning.planner import PlanOptions, PlanResult, PlanStatus, plan
     from .planning.trajectory import Trajectory, load_plan
+    from .runtime.accommodation import AccommodationOptions
     from .runtime.control_types import Mode
     from .runtime.dual import DualOptions, DualResult, DualStatus, execute_dual
     from .runtime.dual_scenario import DualScenario

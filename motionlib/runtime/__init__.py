@@ -17,9 +17,10 @@ sensors
     The per-step sensor hook of the closed loop: objects with ``sense(sim) -> None``, called with
     the simulated crane before the operator and the controller act (the camera; force sensors).
 contact
-    Ground contact of the grapple (penalty spring-damper), computed outside the plant.
+    Ground contact of the grapple in the simulated crane (spring-damper, Coulomb friction).
 accommodation
-    The force-accommodation source, a damping-only impedance (001 section 2.5).
+    The force-accommodation source, a damping-only impedance (001 section 2.5), its force sensor
+    and its options for ``execute``.
 payload
     One payload held by several cranes (001 section 3): the broadcast MRF twist, the grasp-frame rate
     (001 eq. 1), the log as a rigid body on spring-damper grips, the internal force.

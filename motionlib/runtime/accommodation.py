@@ -12,17 +12,27 @@ is balanced when ``K_F f = v``: the contact force settles at ``f = v / K_F``.
 :meth:`AccommodationSource.gains_for_bound` picks ``K_F`` from the force bound and the largest rate
 the other sources can push with.
 
-The contact force comes from outside the plant (:mod:`motionlib.runtime.contact`), through
-:meth:`AccommodationSource.sense`, once per control step before the controller's step.
+The contact force is the simulated crane's (:mod:`motionlib.runtime.contact`,
+:attr:`~motionlib.runtime.plant.SimulatedCrane.contact_force`), read by a :class:`ForceSensor` in the
+loop's sensor hook (:mod:`motionlib.runtime.sensors`) and passed on through
+:meth:`AccommodationSource.sense` once per control step before the controller's step.
+:class:`AccommodationOptions` and :func:`accommodation_source` set it up for
+:func:`~motionlib.runtime.execute.execute` (``ExecuteOptions.accommodation``).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
-from ..checks import check_scalar, check_vector
+from ..checks import check_params, check_scalar, check_vector, param
 from ..errors import InputError
 from .sources import RateSource, StepContext, Vec3
+
+if TYPE_CHECKING:
+    from .plant import SimulatedCrane
+
+AXES = "xyz"
 
 
 class AccommodationSource(RateSource):
@@ -76,3 +86,50 @@ class AccommodationSource(RateSource):
         k, fd, f = self.gains, self.force_des, self.f_env
         # F_S, the force on the environment, is -f_env
         return (k[0] * (fd[0] + f[0]), k[1] * (fd[1] + f[1]), k[2] * (fd[2] + f[2]))
+
+
+class ForceSensor:
+    """The force sensor above the grapple: each step, the plant's contact force goes to ``source``.
+
+    A sensor of the loop's hook (:mod:`motionlib.runtime.sensors`).
+    """
+
+    def __init__(self, source: AccommodationSource):
+        self.source = source
+
+    def sense(self, sim: SimulatedCrane) -> None:
+        self.source.sense(sim.contact_force)
+
+
+@dataclass(frozen=True)
+class AccommodationOptions:
+    """The accommodation source of :func:`~motionlib.runtime.execute.execute` (001 section 2.5).
+
+    Attributes
+    ----------
+    force_bound_n : float
+        Contact force (N) that a steady push of the operator's stick at full deflection must not
+        exceed: ``K_F = v_stick / (margin x bound)`` (:meth:`AccommodationSource.gains_for_bound`).
+        Default 3000 N: an assumption (about four times the lab grapple's weight with a log).
+    margin : float
+        Fraction of the bound at which that push settles.
+    axes : str
+        Base axes on which the source acts (any of ``"xyz"``; the others get ``K_F = 0``). With
+        friction on the ground, x and y give way to the friction of a grapple dragged along it.
+    """
+
+    force_bound_n: float = param(3000.0, gt=0.0, le=1e6)
+    margin: float = param(0.8, gt=0.0, le=1.0)
+    axes: str = AXES
+
+    def __post_init__(self) -> None:
+        check_params(self)
+        if not isinstance(self.axes, str) or not self.axes or set(self.axes) - set(AXES) or \
+                len(set(self.axes)) != len(self.axes):
+            raise InputError(f"axes: expected one or more of x, y, z, each once, got {self.axes!r}")
+
+
+def accommodation_source(options: AccommodationOptions, v_stick_m_s: float) -> AccommodationSource:
+    """The accommodation source of ``options`` for a stick of full-deflection speed ``v_stick_m_s`` (m/s)."""
+    k = AccommodationSource.gains_for_bound(options.force_bound_n, v_stick_m_s, options.margin)[0]
+    return AccommodationSource(tuple(k if a in options.axes else 0.0 for a in AXES))

@@ -25,6 +25,8 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
+from .accommodation import AccommodationOptions, ForceSensor, accommodation_source
+from .contact import ContactParams
 from .control_types import ControllerParams, Mode
 from .controller import SharedController
 from .frames_source import stick_in_frames
@@ -63,6 +65,11 @@ class ExecuteOptions:
         :func:`~motionlib.runtime.frames_source.stick_in_frames`). None, None: the tip, with the
         cylindrical mapping in the base frame. The model operators aim the tip, so other frames
         take a stick script or the passive operator.
+    accommodation : AccommodationOptions or None
+        The force-accommodation source (001 section 2.5, :func:`~motionlib.runtime.accommodation.accommodation_source`)
+        summed with the stick in every mode, reading the simulated crane's contact force through the
+        loop's sensor hook; it turns on the plant's ground contact at the scene's ``ground_z`` unless
+        ``sim.contact`` gives one.
     vision : VisionOptions or None
         A camera on the grapple (or at the tip) and the vision source (001 section 2.4,
         :func:`~motionlib.runtime.vision.vision_source`; its camera's seed is replaced by ``seed``),
@@ -84,9 +91,13 @@ class ExecuteOptions:
     stick_mrf: str | None = None
     stick_crf: str | None = None
     vision: VisionOptions | None = None
+    accommodation: AccommodationOptions | None = None
 
     def __post_init__(self) -> None:
         check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
+        if self.accommodation is not None and not isinstance(self.accommodation, AccommodationOptions):
+            raise InputError(f"accommodation: expected AccommodationOptions or None, got "
+                             f"{type(self.accommodation).__name__}")
         if self.vision is not None and not isinstance(self.vision, VisionOptions):
             raise InputError(f"vision: expected VisionOptions or None, got {type(self.vision).__name__}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
@@ -185,7 +196,10 @@ def prepare_run(
     controller = SharedController(
         crane, mode, opts.controller, opts.mixer, opts.tracker, obstacle_guard=guard, joystick=joystick
     )
-    sim = SimulatedCrane(crane, start_q, replace(opts.sim, seed=opts.seed), rotator0=rotator0)
+    sim_params = replace(opts.sim, seed=opts.seed)
+    if opts.accommodation is not None and sim_params.contact is None:
+        sim_params = replace(sim_params, contact=ContactParams(ground_z=scene.ground_z))
+    sim = SimulatedCrane(crane, start_q, sim_params, rotator0=rotator0)
     return controller, sim
 
 
@@ -228,7 +242,7 @@ def execute(
         Extra attributes stored with the run log (e.g. the library and row it came from).
     sensors : sequence of Sensor, optional
         More sensors for the loop's hook (objects with ``sense(sim)``, :mod:`motionlib.runtime.sensors`),
-        called each step after the vision source's camera.
+        called each step after the vision source's camera and the accommodation's force sensor.
 
     Returns
     -------
@@ -290,8 +304,12 @@ def execute(
             **dict(log_attrs or {}),
         }
     )
-    cameras: list[Sensor] = [vision.camera] if vision is not None else []
-    loop = run_closed_loop(controller, sim, op, opts.loop_options(), log, sensors=cameras + extra_sensors)
+    own: list[Sensor] = [vision.camera] if vision is not None else []
+    if opts.accommodation is not None:
+        accommodation = accommodation_source(opts.accommodation, opts.mixer.v_operator_max_m_s)
+        controller.add_source(accommodation)
+        own.append(ForceSensor(accommodation))
+    loop = run_closed_loop(controller, sim, op, opts.loop_options(), log, sensors=own + extra_sensors)
     arrays = log.arrays(crane)
     summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT

@@ -61,7 +61,9 @@ class LoopResult:
         Wall-clock time of the loop (s).
     steps : int
     diagnostics : dict
-        ``hard_stop_hits`` (int), ``fcl_calls`` (int, obstacle guard), ``events`` (list).
+        ``hard_stop_hits`` (int), ``fcl_calls`` (int, obstacle guard), ``events`` (list);
+        ``rotator_rad`` (the rotator's final angle, cranes with one) and ``peak_contact_force_n``
+        (N, with the plant's ground contact).
     """
 
     log: RunLog
@@ -167,4 +169,6 @@ def run_closed_loop(
     }
     if rotator:
         diag["rotator_rad"] = sim.rotator_q  # the grapple rotator's final angle
+    if sim.params.contact is not None:
+        diag["peak_contact_force_n"] = sim.peak_contact_force_n  # the ground's largest push on the grapple
     return LoopResult(log, settled, float(cycle), wall, steps, diag)

@@ -246,6 +246,8 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         Largest delivered flow over the pump's flow in the period (0 without a pump limit).
     share : float
         The flow-sharing factor of the last substep.
+    contact_peak : float
+        Largest normal force (N) of the ground on the grapple in the period.
     """
     n = u.shape[0]
     q, v, s = joints[0], joints[1], joints[3]
@@ -263,7 +265,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     tx, ty, tz = pend[TIP, 0], pend[TIP, 1], pend[TIP, 2]
     tpx, tpy, tpz = pend[TIP_PREV, 0], pend[TIP_PREV, 1], pend[TIP_PREV, 2]
     fx, fy, fz = pend[ROD_FORCE, 0], pend[ROD_FORCE, 1], pend[ROD_FORCE, 2]
-    fcx = fcy = fcz = 0.0
+    fcx = fcy = fcz = contact_peak = 0.0
     for _ in range(n_sub):
         if react:  # load per unit inertia f_i = (J^T F)_i / I_i, J at the start of the period
             for i in range(4):
@@ -296,6 +298,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         if contact_k > 0.0:
             fcz = ground_force(gz, gpz, h, ground_z, contact_k, contact_c)
             if fcz > 0.0:
+                contact_peak = max(contact_peak, fcz)
                 cz += fcz / mass_h2
                 # ... and its friction: stops the sliding within the step if mu f_n can (stable at any force)
                 dx, dy = cx - gx, cy - gy
@@ -324,7 +327,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     for row, (a, b, c) in ((GRAPPLE, (gx, gy, gz)), (GRAPPLE_PREV, (gpx, gpy, gpz)), (TIP, (tx, ty, tz)),
                            (TIP_PREV, (tpx, tpy, tpz)), (ROD_FORCE, (fx, fy, fz)), (CONTACT_FORCE, (fcx, fcy, fcz))):
         pend[row, 0], pend[row, 1], pend[row, 2] = a, b, c
-    return hits, pump_ratio, share
+    return hits, pump_ratio, share, contact_peak
 
 
 class SimulatedCrane:
@@ -358,6 +361,8 @@ class SimulatedCrane:
     peak_pump_ratio : float
         Largest flow delivered to the joints (the rotator's included) over the pump's flow so far
         (<= 1 with pump sharing).
+    peak_contact_force_n : float
+        Largest normal force (N) of the ground on the grapple so far (0 without ``contact``).
     rotator_q, rotator_qd : float
         The grapple rotator's position (rad) and velocity (rad/s); 0 without a rotator.
     joints : HydraulicJoints
@@ -405,6 +410,7 @@ class SimulatedCrane:
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
         self.hard_stop_hits = 0
         self.peak_pump_ratio = 0.0
+        self.peak_contact_force_n = 0.0
         self._at_stop = np.zeros(self._n, dtype=bool)
         second = prm.model == "second_order"
         model = crane.model
@@ -532,7 +538,7 @@ class SimulatedCrane:
                 c = 0.0
             u[4] = min(max(c, vmin[4]), vmax[4])
         j, contact = self.joints, prm.contact
-        hits, pump_ratio, j.share = integrate_period(
+        hits, pump_ratio, j.share, contact_peak = integrate_period(
             u, n_sub, h, j.state, 1.0 - math.exp(-h / j.tau), j.second_order, j.w2, j.zw2, j.a_relief,
             j.displacement, j.pump_flow, self._q_min, self._q_max, self._at_stop, self._g, self._pend,
             self.length_m, prm.gravity_m_s2, prm.swing_damping_per_s, self._mass, self._react, self._inv_inertia,
@@ -541,6 +547,7 @@ class SimulatedCrane:
         )
         self.hard_stop_hits += hits
         self.peak_pump_ratio = max(self.peak_pump_ratio, pump_ratio)
+        self.peak_contact_force_n = max(self.peak_contact_force_n, contact_peak)
         q, v = j.state[Q].tolist(), j.state[V].tolist()
         self.q, self.qd = (q[0], q[1], q[2], q[3]), (v[0], v[1], v[2], v[3])
         if self._n == 5:

@@ -16,7 +16,8 @@ On a real machine the same sources read real sensors; the hook is the simulation
 sensors are called in the order given. With no sensor the loop's step costs nothing more (one
 truth test of an empty tuple).
 
-Sensors: :class:`~motionlib.runtime.vision.SimulatedCamera` (the vision source's camera).
+Sensors: :class:`~motionlib.runtime.vision.SimulatedCamera` (the vision source's camera),
+:class:`~motionlib.runtime.accommodation.ForceSensor` (the plant's contact force for the accommodation).
 """
 
 from __future__ import annotations

@@ -2,20 +2,26 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from motionlib.errors import InputError
 from motionlib.model.frames import SLEW_CRF, mrf_position, standard_mrfs
 from motionlib.model.kinematics import Crane
-from motionlib.runtime.accommodation import AccommodationSource
+from motionlib.model.scene import Scene
+from motionlib.runtime.accommodation import AccommodationOptions, AccommodationSource, accommodation_source
 from motionlib.runtime.contact import ContactParams, ground_force
 from motionlib.runtime.control_types import OperatorInput
 from motionlib.runtime.controller import SharedController
+from motionlib.runtime.execute import ExecuteOptions, execute
 from motionlib.runtime.frames_source import FrameSource
+from motionlib.runtime.operators import ScriptedStick
 from motionlib.runtime.plant import SimParams, SimulatedCrane
 from motionlib.runtime.sources import CartesianJoystick
 
+ROOT = Path(__file__).resolve().parents[2]
 DT = 0.005
 BOUND_N = 3000.0
 CONTACT = ContactParams(ground_z=0.0)
@@ -110,3 +116,36 @@ def test_stick_on_the_log_end_and_accommodation_at_once(lab):
     assert np.linalg.norm(drift) < 0.002
     assert max(forces) < 1500.0
     assert sim.contact_force[2] == pytest.approx(0.8 * 1500.0, rel=0.03)
+
+
+def _execute_push(lab, options: ExecuteOptions):
+    """``execute`` in M4 with a stick script holding the right stick fully down for 5 s, grapple on the floor."""
+    scene = Scene.load(ROOT / "obstacles" / "log-loading.yaml", crane=lab)
+    start = lab.ik([2.5, 0.4, scene.ground_z + lab.model.grapple_length], 0.3)
+    stick = ScriptedStick([[0.0, *PUSH, 0], [5.0, 0.0, 0.0, 0.0, 0.0, 0]])
+    return execute(None, lab, scene, mode="M4", operator=stick, target=lab.fk(start), start_q=start,
+                   options=options)
+
+
+def test_accommodation_through_execute_keeps_the_force_under_its_bound(lab):
+    """``ExecuteOptions.accommodation``: the source reads the plant's contact through the sensor hook.
+
+    Reference: the closed form of the steady push, ``f = v_stick / K_F = margin x bound``, and the
+    same run with the ground contact but no accommodation, which exceeds the bound.
+    """
+    bound = 3000.0
+    with_acc = _execute_push(lab, ExecuteOptions(obstacle_guard=False, accommodation=AccommodationOptions(bound)))
+    log_f = with_acc.loop.diagnostics["peak_contact_force_n"]
+    contact = ExecuteOptions(obstacle_guard=False, sim=SimParams(contact=ContactParams()))
+    without = _execute_push(lab, contact).loop.diagnostics["peak_contact_force_n"]
+    print(f"execute M4, stick down 5 s: peak contact force {log_f:.0f} N with accommodation (bound {bound:.0f} N), "
+          f"{without:.0f} N without")
+    assert 0.7 * bound < log_f < bound
+    assert without > bound
+    with pytest.raises(InputError, match="axes"):
+        AccommodationOptions(axes="xw")
+
+
+def test_accommodation_axes_disable_the_others(lab):
+    acc = accommodation_source(AccommodationOptions(2000.0, margin=0.5, axes="z"), 0.8)
+    assert acc.gains == pytest.approx((0.0, 0.0, 0.8 / (0.5 * 2000.0)))
