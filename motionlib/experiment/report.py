@@ -134,10 +134,12 @@ def _time_csv(path: Path, table: dict, key_name: str) -> Path:
 def _transitions_csv(out: Path, result: Any) -> Path:
     header = ["operator", "group", "mode", "series", "cycle", "motion", "kind", "t_switch_s", "t_anchor_s",
               "peak_acceleration_m_s2", "peak_jerk_m_s3", "auto_peak_acceleration_m_s2", "auto_peak_jerk_m_s3",
-              "excess_acceleration_m_s2", "excess_jerk_m_s3", "velocity_step_m_s", "peak_speed_before_m_s", "blend_s"]
+              "excess_acceleration_m_s2", "excess_jerk_m_s3", "velocity_step_m_s", "peak_speed_before_m_s", "blend_s",
+              "takeover_dist_end_m", "takeover_reason"]
     rows = [[t.operator, t.group, t.mode, t.series, t.cycle, t.motion, t.kind, t.t_switch, t.t_anchor,
              t.peak_acceleration_m_s2, t.peak_jerk_m_s3, t.auto_peak_acceleration_m_s2, t.auto_peak_jerk_m_s3,
-             t.excess_acceleration_m_s2, t.excess_jerk_m_s3, t.velocity_step_m_s, t.peak_speed_before_m_s, t.blend_s]
+             t.excess_acceleration_m_s2, t.excess_jerk_m_s3, t.velocity_step_m_s, t.peak_speed_before_m_s, t.blend_s,
+             t.takeover_dist_end_m, t.takeover_reason]
             for t in result.transitions]
     return write_csv(out / "transitions.csv", header, rows)
 
@@ -485,7 +487,10 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
               f"{TRANSITION_AFTER_S:g} s after the anchor (the start of the blend in shared control, the abort "
               f"in traded control, else the arrival); excess: the peak above the same motion's automation-only "
               f"peak; step: the commanded tip velocity's step at the switch; blend: median time for `c_a` to "
-              f"fall from 0.9 to 0.1 (0 for an abort).", ""]
+              f"fall from 0.9 to 0.1 (0 for an abort); takeover: the median distance of the tip from the "
+              f"automation's target point when the operator took over the running motion, and how many "
+              f"takeovers each trigger made (distance, or time-to-arrival: the experts' distrust, "
+              f"`motionlib.runtime.operators`).", ""]
     rows = []
     for m in modes:
         for g in ("all", *GROUPS):
@@ -496,11 +501,14 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
             rows.append([m, g, str(st.n), kinds, _f(st.median_peak_acceleration_m_s2),
                          _f(st.median_peak_jerk_m_s3, 1), _f(st.max_peak_jerk_m_s3, 1),
                          _f(st.median_excess_acceleration_m_s2), _f(st.median_excess_jerk_m_s3, 1),
-                         _f(st.median_velocity_step_m_s), _f(an.blend_s.get(m, math.nan)) if g == "all" else ""])
+                         _f(st.median_velocity_step_m_s), _f(an.blend_s.get(m, math.nan)) if g == "all" else "",
+                         _f(st.median_takeover_dist_end_m),
+                         ", ".join(f"{k} {v}" for k, v in sorted(st.takeover_reasons.items()))])
     if rows:
         lines += [_md_table(["mode", "group", "n", "kinds", "median peak acc. (m/s^2)", "median peak jerk (m/s^3)",
                              "max peak jerk (m/s^3)", "median excess acc. (m/s^2)", "median excess jerk (m/s^3)",
-                             "median velocity step (m/s)", "blend (s)"], rows)]
+                             "median velocity step (m/s)", "blend (s)", "takeover at (m)", "takeover triggers"],
+                            rows)]
     else:
         lines.append("No automated modes were run.")
     lines += ["", "![Fig. 8](fig8_transitions.png)", "", "![Peaks](fig8_peaks.png)",
