@@ -7,6 +7,11 @@ are interpolated between the runtime's ``novice`` and ``expert`` presets
 
     value = novice + s (expert - novice),   max_joints = round(1 + 2 s)
 
+except the experts' habits (:data:`motionlib.runtime.operators.HABIT_PARAMETERS`: the joint habit
+of years of joint operation and the distrust of automation near the target), which are not a
+matter of degree of skill but of the operator's history: each operator has those of its group's
+preset (the professional drivers O1 and O2 the expert's, the novices none).
+
 The skills were set once, before any experiment was run, from general reasoning about the
 paper's panel, and have not been changed to match its results:
 
@@ -26,7 +31,7 @@ import hashlib
 from dataclasses import dataclass, fields, replace
 
 from ..errors import InputError
-from ..runtime.operators import OPERATOR_PRESETS, OperatorParams
+from ..runtime.operators import HABIT_PARAMETERS, OPERATOR_PRESETS, OperatorParams
 
 #: The interpolated parameters (the others are the presets' common values).
 _INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_move_s",
@@ -60,13 +65,27 @@ class PanelOperator:
     note: str
 
 
-def params_for_skill(skill: float) -> OperatorParams:
-    """Operator parameters interpolated between the novice (``skill = 0``) and expert (1) presets."""
+def params_for_skill(skill: float, group: str | None = None) -> OperatorParams:
+    """Operator parameters interpolated between the novice (``skill = 0``) and expert (1) presets.
+
+    Parameters
+    ----------
+    skill : float
+        In [0, 1].
+    group : {"expert", "novice"}, optional
+        Whose habits (:data:`~motionlib.runtime.operators.HABIT_PARAMETERS`) the operator has,
+        taken whole from that preset; default the nearer preset's (``expert`` for ``skill >= 0.5``).
+    """
     if not 0.0 <= float(skill) <= 1.0:
         raise InputError(f"skill: expected a number in [0, 1], got {skill!r}")
+    if group is None:
+        group = "expert" if skill >= 0.5 else "novice"
+    if group not in ("expert", "novice"):
+        raise InputError(f"group: expected 'expert' or 'novice', got {group!r}")
     lo, hi = OPERATOR_PRESETS["novice"], OPERATOR_PRESETS["expert"]
     values = {name: getattr(lo, name) + skill * (getattr(hi, name) - getattr(lo, name)) for name in _INTERPOLATED}
     values["max_joints"] = int(round(lo.max_joints + skill * (hi.max_joints - lo.max_joints)))
+    values.update({name: getattr(OPERATOR_PRESETS[group], name) for name in HABIT_PARAMETERS})
     for f in fields(OperatorParams):  # the presets' shared values
         if f.name not in values and getattr(lo, f.name) != getattr(hi, f.name):
             raise InputError(f"params_for_skill: preset parameter {f.name!r} differs but is not interpolated")
@@ -78,7 +97,7 @@ def _seed(name: str) -> int:
 
 
 def _member(name: str, group: str, skill: float, note: str) -> PanelOperator:
-    return PanelOperator(name, group, skill, params_for_skill(skill), _seed(name), note)
+    return PanelOperator(name, group, skill, params_for_skill(skill, group), _seed(name), note)
 
 
 PANEL: dict[str, PanelOperator] = {

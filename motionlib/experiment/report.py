@@ -47,6 +47,7 @@ from .stats import (
     TRANSITION_PARTLY,
     TRANSITION_REPRODUCED,
     Analysis,
+    TransitionStats,
     mode_rank_correlation,
 )
 
@@ -134,10 +135,12 @@ def _time_csv(path: Path, table: dict, key_name: str) -> Path:
 def _transitions_csv(out: Path, result: Any) -> Path:
     header = ["operator", "group", "mode", "series", "cycle", "motion", "kind", "t_switch_s", "t_anchor_s",
               "peak_acceleration_m_s2", "peak_jerk_m_s3", "auto_peak_acceleration_m_s2", "auto_peak_jerk_m_s3",
-              "excess_acceleration_m_s2", "excess_jerk_m_s3", "velocity_step_m_s", "peak_speed_before_m_s", "blend_s"]
+              "excess_acceleration_m_s2", "excess_jerk_m_s3", "velocity_step_m_s", "peak_speed_before_m_s", "blend_s",
+              "takeover_dist_end_m", "takeover_reason"]
     rows = [[t.operator, t.group, t.mode, t.series, t.cycle, t.motion, t.kind, t.t_switch, t.t_anchor,
              t.peak_acceleration_m_s2, t.peak_jerk_m_s3, t.auto_peak_acceleration_m_s2, t.auto_peak_jerk_m_s3,
-             t.excess_acceleration_m_s2, t.excess_jerk_m_s3, t.velocity_step_m_s, t.peak_speed_before_m_s, t.blend_s]
+             t.excess_acceleration_m_s2, t.excess_jerk_m_s3, t.velocity_step_m_s, t.peak_speed_before_m_s, t.blend_s,
+             t.takeover_dist_end_m, t.takeover_reason]
             for t in result.transitions]
     return write_csv(out / "transitions.csv", header, rows)
 
@@ -352,6 +355,32 @@ def _md_table(header: list[str], rows: list[list[str]]) -> str:
     return "\n".join(lines)
 
 
+def _cycle_time_text(
+    e1: float, e4: float, e6: float, n1: float, n6: float, take_e: TransitionStats | None,
+    take_n: TransitionStats | None,
+) -> str:
+    """The discussion's cycle-time statement from the groups' mean cycle times (s) and M6 takeovers."""
+    gain = "gain from automation too" if e6 < e1 else "are slower with automation, as in 000"
+    text = (f"- **Cycle times.** Novices gain most from automation (M1 {_f(n1, 1)} s, M6 {_f(n6, 1)} s per cycle). "
+            f"The automated go out and go back follow the library's time-optimal trajectories; the model experts "
+            f"(M1 {_f(e1, 1)} s, M6 {_f(e6, 1)} s: M6 / M1 {_f(e6 / e1)}) {gain}, where 000 found its "
+            f"professionals 1.2x slower with semi-autonomous control.")
+    if take_e is not None and math.isfinite(take_e.median_takeover_dist_end_m):
+        n_tau = take_e.takeover_reasons.get("time-to-arrival", 0)
+        n_all = sum(take_e.takeover_reasons.values())
+        text += (f" The model experts have the habits of docs/runtime.md (\"Expert habits\"): in Cartesian "
+                 f"operation they also push the joint levers they are used to (their manual Cartesian cycles M4 "
+                 f"{_f(e4, 1)} s, {_f(e4 / e1)}x their joint ones), and, distrusting the automation near its "
+                 f"target, in M6 they took over a median {_f(take_e.median_takeover_dist_end_m)} m from the "
+                 f"automation's target point ({n_tau} of {n_all} takeovers on the time to arrival)")
+        if take_n is not None and math.isfinite(take_n.median_takeover_dist_end_m):
+            text += f", the novices {_f(take_n.median_takeover_dist_end_m)} m"
+        text += ", and drove the rest themselves."
+    else:
+        text += " The model experts took over no running motion in M6."
+    return text
+
+
 def _discussion(an: Analysis) -> list[str]:
     """What the run's own numbers say about why it agrees with 000 or not (each statement checked on the data)."""
     lines = []
@@ -371,16 +400,11 @@ def _discussion(an: Analysis) -> list[str]:
                  "Fig. 8 a shows such oscillations), but a blend and an abort this fast excite them alike, and the "
                  "filtered jerk also contains the time-optimal library trajectory's own acceleration switching.")
         lines.append(text)
-    e1, e6 = an.times.mean("expert", "M1"), an.times.mean("expert", "M6")
+    e1, e4, e6 = (an.times.mean("expert", m) for m in ("M1", "M4", "M6"))
     n1, n6 = an.times.mean("novice", "M1"), an.times.mean("novice", "M6")
     if all(math.isfinite(v) for v in (e1, e6, n1, n6)):
-        gain = "gain from automation too" if e6 < e1 else "are slower with automation, as in 000"
-        lines.append(
-            f"- **Cycle times.** Novices gain most from automation (M1 {_f(n1, 1)} s, M6 {_f(n6, 1)} s per cycle). "
-            f"The automated go out and go back follow the library's time-optimal trajectories; the model experts "
-            f"(M1 {_f(e1, 1)} s, M6 {_f(e6, 1)} s) {gain}, where 000 found its professionals 1.2x slower with "
-            f"semi-autonomous control: the model has no years of joint-operation habit and no distrust of the "
-            f"automation.")
+        lines.append(_cycle_time_text(e1, e4, e6, n1, n6, an.transitions.get(("M6", "expert")),
+                                      an.transitions.get(("M6", "novice"))))
     g = an.jerk.groups
     if all(("novice", m) in g for m in ("M1", "M5", "M6")):
         diff = abs(g[("novice", "M5")] - g[("novice", "M6")]) / max(g[("novice", "M6")], 1e-12)
@@ -485,7 +509,10 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
               f"{TRANSITION_AFTER_S:g} s after the anchor (the start of the blend in shared control, the abort "
               f"in traded control, else the arrival); excess: the peak above the same motion's automation-only "
               f"peak; step: the commanded tip velocity's step at the switch; blend: median time for `c_a` to "
-              f"fall from 0.9 to 0.1 (0 for an abort).", ""]
+              f"fall from 0.9 to 0.1 (0 for an abort); takeover: the median distance of the tip from the "
+              f"automation's target point when the operator took over the running motion, and how many "
+              f"takeovers each trigger made (distance, or time-to-arrival: the experts' distrust, "
+              f"`motionlib.runtime.operators`).", ""]
     rows = []
     for m in modes:
         for g in ("all", *GROUPS):
@@ -496,11 +523,14 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
             rows.append([m, g, str(st.n), kinds, _f(st.median_peak_acceleration_m_s2),
                          _f(st.median_peak_jerk_m_s3, 1), _f(st.max_peak_jerk_m_s3, 1),
                          _f(st.median_excess_acceleration_m_s2), _f(st.median_excess_jerk_m_s3, 1),
-                         _f(st.median_velocity_step_m_s), _f(an.blend_s.get(m, math.nan)) if g == "all" else ""])
+                         _f(st.median_velocity_step_m_s), _f(an.blend_s.get(m, math.nan)) if g == "all" else "",
+                         _f(st.median_takeover_dist_end_m),
+                         ", ".join(f"{k} {v}" for k, v in sorted(st.takeover_reasons.items()))])
     if rows:
         lines += [_md_table(["mode", "group", "n", "kinds", "median peak acc. (m/s^2)", "median peak jerk (m/s^3)",
                              "max peak jerk (m/s^3)", "median excess acc. (m/s^2)", "median excess jerk (m/s^3)",
-                             "median velocity step (m/s)", "blend (s)"], rows)]
+                             "median velocity step (m/s)", "blend (s)", "takeover at (m)", "takeover triggers"],
+                            rows)]
     else:
         lines.append("No automated modes were run.")
     lines += ["", "![Fig. 8](fig8_transitions.png)", "", "![Peaks](fig8_peaks.png)",

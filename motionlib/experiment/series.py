@@ -158,6 +158,12 @@ class Transition:
         switch (shared control, 000 eq. 4); 0 for an abort (traded: immediate); NaN for an arrival.
     excerpt : dict
         ``t`` (n,) s relative to the switch; ``p``, ``v``, ``a``, ``j`` (n, 3).
+    takeover_dist_end_m : float
+        Distance (m) of the tip from the automation's target point (``Scenario.out_target`` /
+        ``back_target``) when the operator took over the running motion (its ``takeover`` event);
+        NaN when it did not (it waited for the arrival).
+    takeover_reason : str
+        What made it take over: ``distance`` or ``time-to-arrival`` (expert distrust); empty if none.
     """
 
     operator: str
@@ -179,6 +185,8 @@ class Transition:
     excess_acceleration_m_s2: float = math.nan
     excess_jerk_m_s3: float = math.nan
     velocity_step_m_s: float = math.nan
+    takeover_dist_end_m: float = math.nan
+    takeover_reason: str = ""
 
 
 @dataclass
@@ -423,6 +431,13 @@ def _measure(
         auto = sig.window(cmd.t, anchor)  # the automation alone, from the motion's start to the anchor
         k = int(np.searchsorted(sig.t, sw.t - 1e-9))  # the first step under the new authority
         step = slice(None, None, TRANSITION_STEP)
+        take = next((e for e in events if e.name == "takeover" and cmd.t <= e.t <= sw.t + 1e-9), None)
+        take_dist = math.nan
+        if take is not None:
+            log_k = scenario.logs[cmd.cycle]
+            end_p = scenario.out_target(log_k) if cmd.name == "go_out" else scenario.back_target(log_k)
+            i_take = min(int(np.searchsorted(sig.t, take.t - 1e-9)), len(sig.t) - 1)
+            take_dist = float(np.linalg.norm(sig.p[i_take] - np.asarray(end_p)))
         result.transitions.append(Transition(
             result.operator, result.group, result.mode, result.series, cmd.cycle, cmd.name, sw.name, float(sw.t),
             peak_a, peak_j, float(before.max()) if before.size else 0.0, blend,
@@ -432,6 +447,7 @@ def _measure(
             excess_acceleration_m_s2=max(0.0, peak_a - auto["peak_acceleration_m_s2"]),
             excess_jerk_m_s3=max(0.0, peak_j - auto["peak_jerk_m_s3"]),
             velocity_step_m_s=command_step(k),
+            takeover_dist_end_m=take_dist, takeover_reason=take.detail if take is not None else "",
         ))
     manual = "manual" if not task.automated else "running"
     for seg in segments:

@@ -183,6 +183,11 @@ class TransitionStats:
         Median of the peaks in excess of the same motion's automation-only peaks (``Transition``).
     median_velocity_step_m_s : float
         Median step of the commanded tip velocity at the switch.
+    median_takeover_dist_end_m : float
+        Median distance (m) from the automation's target point at which the operators took over
+        (``Transition.takeover_dist_end_m``; NaN when none did).
+    takeover_reasons : dict
+        Number of takeovers per trigger (``distance``, ``time-to-arrival``).
     """
 
     n: int
@@ -194,6 +199,8 @@ class TransitionStats:
     median_excess_acceleration_m_s2: float = math.nan
     median_excess_jerk_m_s3: float = math.nan
     median_velocity_step_m_s: float = math.nan
+    median_takeover_dist_end_m: float = math.nan
+    takeover_reasons: dict[str, int] = field(default_factory=dict)
 
 
 def _transition_stats(items: Sequence[Any]) -> TransitionStats:
@@ -210,8 +217,14 @@ def _transition_stats(items: Sequence[Any]) -> TransitionStats:
         values = [v for v in values if not math.isnan(v)]
         return median(values) if values else math.nan
 
+    reasons: dict[str, int] = {}
+    for t in items:
+        why = getattr(t, "takeover_reason", "")
+        if why:
+            reasons[why] = reasons.get(why, 0) + 1
     return TransitionStats(len(items), kinds, median(acc), median(jerk), max(acc), max(jerk),
-                           med("excess_acceleration_m_s2"), med("excess_jerk_m_s3"), med("velocity_step_m_s"))
+                           med("excess_acceleration_m_s2"), med("excess_jerk_m_s3"), med("velocity_step_m_s"),
+                           med("takeover_dist_end_m"), reasons)
 
 
 def transition_table(transitions: Iterable[Any]) -> dict[tuple[str, str], TransitionStats]:

@@ -26,7 +26,8 @@ Events (:class:`TaskEvent`, in :attr:`LoadingTask.events`): ``cycle_start``, ``g
 (automation command), ``grab_start`` (closing starts), ``grab`` (closed on the log),
 ``grab_missed``, ``go_back``, ``release_start``, ``release`` (the log lies in the target area;
 the cycle ends), ``release_missed``, ``gave_up`` (attempts exhausted: the task moves on),
-``finished``.
+``finished``, and ``takeover`` (the hands take over a running automated motion; detail: the
+trigger, ``distance`` or ``time-to-arrival``, :attr:`SimulatedOperator.takeover`).
 """
 
 from __future__ import annotations
@@ -127,6 +128,7 @@ class LoadingTask:
         self._t_next = member.params.reaction_time_s  # end of the current wait or dwell
         self._ok = False
         self._started = False
+        self._takeover_logged = False
 
     # ---------------------------------------------------------------- interface
     def input(self, obs: Observation) -> OperatorInput:
@@ -140,6 +142,9 @@ class LoadingTask:
             if op is None:
                 raise RuntimeError("LoadingTask: hands phase without an operator model")
             inp = op.input(obs)
+            if op.takeover is not None and not self._takeover_logged:
+                self._takeover_logged = True
+                self._event(op.takeover[0], "takeover", op.takeover[1])
             if op.done(obs) and not self.controller.automation_active:
                 self._begin_dwell(t)
             return inp
@@ -185,6 +190,7 @@ class LoadingTask:
         seed = phase_seed(self.member.seed, self.series, self.cycle, kind, self.attempts[kind])
         self._op = SimulatedOperator(goal, self.member.params, self.mode, self.controller.joystick,
                                      self.controller.crane, seed=seed, name=self.member.name, via=via)
+        self._takeover_logged = False
         self._phase = "hands"
 
     def _begin_dwell(self, t: float) -> None:

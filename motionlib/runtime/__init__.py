@@ -37,7 +37,7 @@ mixer
 resolved_rate
     Weighted, damped pseudo-inverse with null-space term (000 eq. 2, 001 eq. 7).
 operators
-    Simulated operators: passive, scripted (CSV), novice and expert models.
+    Simulated operators: passive, scripted (CSV), novice and expert models (the experts with habits).
 plant
     :class:`~.plant.SimulatedCrane`: hydraulic joints (with the grapple rotator on a crane that
     has one), end stops and the swinging grapple.

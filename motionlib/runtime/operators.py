@@ -55,6 +55,49 @@ traded modes 000 section 3.3 lets the operator either abort or wait for the task
 with probability ``traded_wait_fraction`` (one seeded draw per operator, i.e. per motion in
 the experiment) it waits for the arrival instead of aborting.
 
+Expert habits
+-------------
+Two habits that 000 attributes to its professional drivers (section 4.2: "years of training in
+manual operation", 1.2x slower with the semi-autonomous modes; section 4.3: they "find the
+precision of cartesian operation to be lower"), each a parameter, 0 (off) for novices:
+
+* **Joint habit** (``joint_habit`` = ``h`` in [0, 1]; years of joint operation). In Cartesian
+  operation the hands still push the joint levers they would push in joint operation: the stick
+  is ``(1 - h) a_cart + h a_joint``, ``a_cart`` the axes that command the intended tip velocity
+  through the Cartesian mapping, ``a_joint`` the joint levers for the same velocity (the best
+  subset of ``max_joints`` joints, as in joint operation; lever deflection = joint rate / joint
+  speed, placed on the stick axes of the forwarder's joint mapping, 000 Fig. 5 a). The
+  Cartesian mapping was "designed to resemble" the joint mapping (000 section 3.2), so the
+  habitual levers move the tip roughly, not exactly, where intended (the telescope lever's axis
+  does nothing in Cartesian operation); the operator's closed loop corrects the error at its
+  next corrections. This is negative transfer: an ingrained response to the same controls in a
+  changed stimulus-response mapping (Osgood 1949, *The similarity paradox in human learning: a
+  resolution*, Psychological Review 56: 132-143). ``h = 0.5`` for the expert is an assumption
+  (no source gives a weight). In joint operation the habit changes nothing.
+* **Distrust of automation near the target** (``distrust_tau_s``, ``distrust_tau_cv``). Besides
+  ``takeover_distance_m``, a distrustful operator takes over an automated motion when its seen
+  time to arrival at the motion's end point falls below a threshold ``tau_k``: Lee's tau,
+  ``d / (-dd/dt)`` with ``d`` the seen distance and ``-dd/dt`` the seen closing speed (Lee 1976,
+  *A theory of visual control of braking based on information about time-to-collision*,
+  Perception 5: 437-459: humans time interceptive and braking actions on tau, not on distance),
+  so it takes over farther out the faster the automation moves. ``tau_k`` is drawn once per
+  operator (one automated motion in the experiment), log-normal with median ``distrust_tau_s`` and
+  coefficient of variation ``distrust_tau_cv`` (:func:`takeover_tau_s`, its own seeded stream):
+  the spread of a human's timing grows with the timed interval (the scalar property of interval
+  timing, Gibbon 1977, *Scalar expectancy theory and Weber's law in animal timing*,
+  Psychological Review 84: 279-325; in humans Rakitin et al. 1998, J. Exp. Psychol. Anim. Behav.
+  Process. 24: 15-33). The expert's median 1.5 s (three of 000's smooth manual time scales
+  ``tau_smooth`` ~ 0.5 s, section 4.1: the last three corrective movements in its own hands)
+  and CV 0.15 are assumptions. Distrust in automation as a cause of disuse and early manual
+  intervention: Parasuraman & Riley 1997, *Humans and automation: use, misuse, disuse, abuse*,
+  Human Factors 39: 230-253; Lee & See 2004, *Trust in automation: designing for appropriate
+  reliance*, Human Factors 46: 50-80. Which trigger fired, and when, is kept in
+  :attr:`SimulatedOperator.takeover`.
+
+003 Fig. 3.4 shows that experienced forwarder operators move *more* joints at once (10 versus
+2 years of experience), hence ``max_joints`` 3 for the expert; a habit of moving one or two joints
+at a time is not modelled because the seed contradicts it.
+
 Presets (``OPERATOR_PRESETS``) -- set once from general reasoning, not fitted to 000's results:
 
 ========================  ========  ========  ==========================================
@@ -75,7 +118,14 @@ traded_wait_fraction      0.5       0.25      assumption: 000 gives no frequency
                                                 distrusting automation near the target, abort more
 via_radius_m              0.25      0.25      how close a via point must be passed
 settle_speed_m_s          0.05      0.05      "the grapple is still" (seen speed)
+joint_habit               0         0.5       expert habits (above): negative transfer
+                                                (Osgood 1949); the weight is an assumption
+distrust_tau_s            0         1.5       takes over at this seen time to arrival (Lee
+                                                1976 tau); 1.5 s an assumption (above)
+distrust_tau_cv           0         0.15      scalar timing spread (Gibbon 1977); assumption
 ========================  ========  ========  ==========================================
+
+The habit parameters were set before the experiment was run with them, and not changed after.
 """
 
 from __future__ import annotations
@@ -280,6 +330,9 @@ class OperatorParams:
     traded_wait_fraction: float = param(0.5, ge=0.0, le=1.0)
     via_radius_m: float = param(0.25, gt=0.0)
     settle_speed_m_s: float = param(0.05, gt=0.0)
+    joint_habit: float = param(0.0, ge=0.0, le=1.0)
+    distrust_tau_s: float = param(0.0, ge=0.0)
+    distrust_tau_cv: float = param(0.0, ge=0.0)
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -300,8 +353,32 @@ OPERATOR_PRESETS: dict[str, OperatorParams] = {
         max_joints=3,
         takeover_distance_m=1.0,
         traded_wait_fraction=0.25,
+        joint_habit=0.5,
+        distrust_tau_s=1.5,
+        distrust_tau_cv=0.15,
     ),
 }
+"""The ``novice`` and ``expert`` operators (see the module docstring for every value's source)."""
+
+#: Parameters of the experts' habits (see "Expert habits" in the module docstring): off (0) for novices.
+HABIT_PARAMETERS: tuple[str, ...] = ("joint_habit", "distrust_tau_s", "distrust_tau_cv")
+
+
+def takeover_tau_s(params: OperatorParams, seed: int) -> float:
+    """The time-to-arrival threshold (s) at which a distrustful operator takes over one automated motion.
+
+    Log-normal with median ``params.distrust_tau_s`` and coefficient of variation
+    ``params.distrust_tau_cv`` (log-sd ``sigma = sqrt(ln(1 + cv^2))``): ``tau = median exp(sigma Z)``,
+    ``Z`` standard normal from its own stream seeded by ``seed`` (so the hand's noise and the
+    target estimate are the same with and without the habit). 0 when the habit is off.
+    """
+    median, cv = params.distrust_tau_s, params.distrust_tau_cv
+    if median <= 0.0:
+        return 0.0
+    if cv <= 0.0:
+        return median
+    sigma = math.sqrt(math.log1p(cv * cv))
+    return median * math.exp(sigma * random.Random(f"motionlib-distrust/{int(seed)}").gauss(0.0, 1.0))
 
 
 class MinimumJerkStick:
@@ -416,6 +493,8 @@ class SimulatedOperator:
         self._subset_idx = np.array(list(itertools.combinations(range(4), params.max_joints)))  # (m, k)
         self._kin = TipKinematics(crane)
         self._seed = int(seed)
+        # the joint levers as on the machine (full deflection: the joint's speed), for the joint habit
+        self._levers = JointJoystick(self._speed.tolist(), name="habit")
         self.reset()
 
     @classmethod
@@ -455,6 +534,8 @@ class SimulatedOperator:
         self._factors = (0.0, 1.0, 0.0)
         self._aborted = False
         self.abort_pressed_at: float | None = None
+        self.takeover_tau_s = takeover_tau_s(prm, self._seed)
+        self.takeover: tuple[float, str] | None = None
 
     # ---------------------------------------------------------------- model
     def _perceived(self, obs: Observation) -> tuple[Vec3, Vec3]:
@@ -489,7 +570,29 @@ class SimulatedOperator:
         if speed > prm.max_speed_m_s:
             v *= prm.max_speed_m_s / speed
         if isinstance(self.joystick, CartesianJoystick):
-            return self.joystick.axes_for(obs.p, tuple(v.tolist()))
+            cart = self.joystick.axes_for(obs.p, tuple(v.tolist()))
+            h = prm.joint_habit
+            if h <= 0.0:
+                return cart
+            # years of joint operation: the hands also push the joint levers they would use (negative transfer)
+            lever = self._levers.axes_for(self._joint_rates(obs, v))
+            return (
+                (1.0 - h) * cart[0] + h * lever[0],
+                (1.0 - h) * cart[1] + h * lever[1],
+                (1.0 - h) * cart[2] + h * lever[2],
+                (1.0 - h) * cart[3] + h * lever[3],
+            )
+        if not isinstance(self.joystick, JointJoystick):
+            raise InputError(f"joint operation needs a JointJoystick, got {type(self.joystick).__name__}")
+        return self.joystick.axes_for(self._joint_rates(obs, v))
+
+    def _joint_rates(self, obs: Observation, v: np.ndarray) -> tuple[float, float, float, float]:
+        """Joint rates (4,) of the best subset of ``max_joints`` joints for tip velocity ``v`` (3,), m/s.
+
+        Least squares for every subset, leaving out subsets that push a joint further into a stop
+        (within 3 % of its range); scaled down alike so that no joint exceeds its speed (full lever
+        deflection).
+        """
         q = np.asarray(obs.q)
         jac = np.reshape(self._kin.tip_jacobian(*obs.q)[1], (3, 4))
         # least squares for every subset of max_joints joints at once: normal equations (m, k, k)
@@ -508,10 +611,8 @@ class SimulatedOperator:
         peak = float(np.max(np.abs(best) / self._speed))
         if peak > 1.0:  # a human cannot push past full deflection: scale all joints alike
             best /= peak
-        if not isinstance(self.joystick, JointJoystick):
-            raise InputError(f"joint operation needs a JointJoystick, got {type(self.joystick).__name__}")
         b = best.tolist()
-        return self.joystick.axes_for((b[0], b[1], b[2], b[3]))
+        return (b[0], b[1], b[2], b[3])
 
     def input(self, obs: Observation) -> OperatorInput:
         prm = self.params
@@ -526,10 +627,13 @@ class SimulatedOperator:
             near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m or (
                 auto and end is not None and math.dist(end, p_seen) <= prm.takeover_distance_m
             )
+            soon = auto and end is not None and _arrives_within(end, p_seen, v_seen, self.takeover_tau_s)
             # in manual modes act once the reaction time has passed; a waiting traded operator lets the motion end
             if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (
-                auto and near and not self.waits_for_arrival
+                auto and (near or soon) and not self.waits_for_arrival
             ):
+                if auto:
+                    self.takeover = (t, "distance" if near else "time-to-arrival")
                 self.phase = "act"
                 if auto and self.mode.authority == "traded":
                     abort = True
@@ -560,6 +664,20 @@ class SimulatedOperator:
 
     def done(self, obs: Observation) -> bool:
         return self.phase == "done"
+
+
+def _arrives_within(end: Vec3, p: Vec3, v: Vec3, tau_s: float) -> bool:
+    """Lee's (1976) tau: the tip at ``p`` (m) moving at ``v`` (m/s) reaches ``end`` (m) within ``tau_s`` (s).
+
+    ``tau = d / (-dd/dt)`` with ``d = |end - p|`` and ``-dd/dt = v . (end - p) / d`` (the closing
+    speed); False when not closing or ``tau_s`` is 0 (the habit off).
+    """
+    if tau_s <= 0.0:
+        return False
+    ex, ey, ez = end[0] - p[0], end[1] - p[1], end[2] - p[2]
+    d2 = ex * ex + ey * ey + ez * ez
+    closing_d = v[0] * ex + v[1] * ey + v[2] * ez  # closing speed times d
+    return closing_d > 0.0 and d2 <= tau_s * closing_d  # d / closing <= tau
 
 
 def operator_kind(spec: str) -> str:

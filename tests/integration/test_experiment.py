@@ -395,3 +395,35 @@ def test_no_process_outlives_a_killed_experiment(tiny, tmp_path: Path):
             "--out", str(tmp_path / "out")]
     n_seen, alive = survivors_after_kill(args, tmp_path / "experiment.log", ready)
     assert n_seen >= 2 and alive == []
+
+
+def test_takeover_is_recorded_where_the_operator_took_over(tiny):
+    """A professional (O1, with the experts' distrust) and a novice (O5) in M6 on the tiny library: every
+    takeover of a running motion is a task event before the switch, and the transition's distance from
+    the automation's target point agrees with the tip path at that time (20 Hz path: within the tip's
+    travel in half a sample); only the expert has time-to-arrival takeovers available (the novice none)."""
+    from motionlib.experiment.series import PATH_RATE_HZ, ExperimentContext, run_series
+
+    _, lib = tiny
+    ctx = ExperimentContext(lib)
+    reasons = {}
+    for name in ("O1", "O5"):
+        res = run_series(ctx, name, "M6", 0, cycles=1)
+        assert res.finished and res.transitions
+        takes = [e for e in res.events if e.name == "takeover"]
+        assert len(takes) == sum(1 for t in res.transitions if t.takeover_reason)
+        reasons[name] = {t.takeover_reason for t in res.transitions if t.takeover_reason}
+        for tr in res.transitions:
+            if not tr.takeover_reason:
+                assert math.isnan(tr.takeover_dist_end_m)
+                continue
+            ev = [e for e in takes if e.t <= tr.t_switch + 1e-9][-1]  # the last takeover before the switch
+            assert ev.cycle == tr.cycle and ev.detail == tr.takeover_reason
+            log = ctx.scenario.logs[tr.cycle]
+            end = ctx.scenario.out_target(log) if tr.motion == "go_out" else ctx.scenario.back_target(log)
+            i = int(np.argmin(np.abs(res.path_t - ev.t)))
+            speed = np.linalg.norm(np.diff(res.path_p, axis=0), axis=1).max() * PATH_RATE_HZ
+            assert abs(np.linalg.norm(res.path_p[i] - np.asarray(end)) - tr.takeover_dist_end_m) <= (
+                speed * 0.5 / PATH_RATE_HZ + 1e-6)
+    assert "time-to-arrival" not in reasons["O5"]
+    assert reasons["O1"] <= {"distance", "time-to-arrival"} and reasons["O1"]
