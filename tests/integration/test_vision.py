@@ -39,7 +39,7 @@ def run_sources(crane: Crane, sim: SimulatedCrane, sources: list[RateSource], du
         v = np.zeros(3)
         for s in sources:
             v += s.rate(ctx)
-        qd, _, _ = resolve_rate_fast(ctx.jac, v.tolist(), w, (0.0, 0.0, 0.0, 0.0), 0.05, 0.05)
+        qd, _, _ = resolve_rate_fast(ctx.jac, tuple(v.tolist()), w, (0.0, 0.0, 0.0, 0.0), 0.05, 0.05)
         if all(s.arrived(ctx) for s in sources):
             arrived.append(state.t)
         sim.advance(qd, DT)
