@@ -68,8 +68,8 @@ class ExecuteOptions:
     accommodation : AccommodationOptions or None
         The force-accommodation source (001 section 2.5, :func:`~motionlib.runtime.accommodation.accommodation_source`)
         summed with the stick in every mode, reading the simulated crane's contact force through the
-        loop's sensor hook; it turns on the plant's ground contact at the scene's ``ground_z`` unless
-        ``sim.contact`` gives one.
+        loop's sensor hook; it turns on the plant's contact (the ground at the scene's ``ground_z``
+        unless ``sim.contact`` gives one, and the scene's obstacles).
     vision : VisionOptions or None
         A camera on the grapple (or at the tip) and the vision source (001 section 2.4,
         :func:`~motionlib.runtime.vision.vision_source`; its camera's seed is replaced by ``seed``),
@@ -199,7 +199,7 @@ def prepare_run(
     sim_params = replace(opts.sim, seed=opts.seed)
     if opts.accommodation is not None and sim_params.contact is None:
         sim_params = replace(sim_params, contact=ContactParams(ground_z=scene.ground_z))
-    sim = SimulatedCrane(crane, start_q, sim_params, rotator0=rotator0)
+    sim = SimulatedCrane(crane, start_q, sim_params, rotator0=rotator0, obstacles=scene.obstacles)
     return controller, sim
 
 

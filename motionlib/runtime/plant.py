@@ -57,9 +57,10 @@ Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_grapple)`` (N
 
 Ground contact (``SimParams.contact``)
 --------------------------------------
-The ground pushes the grapple point out of the plane ``z = ground_z`` with a spring-damper and
-holds it with Coulomb friction (:mod:`motionlib.runtime.contact`); the force enters the grapple's
-Verlet step, so it reaches the tip through the rod (``F = m (g_vec - a_grapple) + F_ground``) and
+The ground (and, given ``obstacles``, the scene's obstacles) push the grapple point out with a
+spring-damper and hold it with Coulomb friction (:mod:`motionlib.runtime.contact`); the force
+enters the grapple's Verlet step, so it reaches the tip through the rod
+(``F = m (g_vec - a_grapple) + F_contact``) and
 the joints through the reaction above. :attr:`SimulatedCrane.contact_force` is what a force
 sensor above the grapple reads (001 section 2.5).
 
@@ -77,7 +78,7 @@ from __future__ import annotations
 
 import math
 import random
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -88,7 +89,8 @@ from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..errors import InputError
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
-from .contact import ContactParams, ground_force
+from ..model.scene import Obstacle
+from .contact import ContactParams, ContactSurfaces, penalty_force
 from .control_types import GRAVITY_M_S2, CraneState
 from .hydraulics import HydraulicJoints, Q, V, actuators_substep
 
@@ -201,6 +203,8 @@ class SimParams:
                 raise InputError(f"joint_inertia: expected 4 positive values, got {list(self.joint_inertia)}")
 
 
+_NO_PLANES = np.zeros((0, 4))
+
 #: Rows of the grapple's state array (6, 3) of :func:`integrate_period` (m, N; base frame).
 GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV, ROD_FORCE, CONTACT_FORCE = range(6)
 
@@ -208,7 +212,7 @@ GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV, ROD_FORCE, CONTACT_FORCE = range(6)
 @njit(cache=True)
 def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2: float, zw2: float,
                      a_relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
-                     gravity: float, damping: float, mass: float, react: bool, inv_inertia, ground_z: float,
+                     gravity: float, damping: float, mass: float, react: bool, inv_inertia, planes,
                      contact_k: float, contact_c: float, friction: float):
     """Integrate the plant over one control period of ``n_sub`` substeps ``h`` (s), in place (module docstring).
 
@@ -235,8 +239,11 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         The rod's force acts on the joints (second-order model with a load mass).
     inv_inertia : ndarray, shape (n,)
         ``1 / I_i`` (the rotator's 0: no load).
-    ground_z, contact_k, contact_c, friction : float
-        Ground height (m), stiffness (N/m; 0: no contact), damping (N s/m) and friction coefficient.
+    planes : ndarray, shape (k, 4)
+        Contact half-spaces ``n . p >= d``, rows ``(n_x, n_y, n_z, d)``
+        (:class:`~motionlib.runtime.contact.ContactSurfaces`); k = 0: no contact.
+    contact_k, contact_c, friction : float
+        The surfaces' stiffness (N/m), damping (N s/m) and friction coefficient.
 
     Returns
     -------
@@ -247,7 +254,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     share : float
         The flow-sharing factor of the last substep.
     contact_peak : float
-        Largest normal force (N) of the ground on the grapple in the period.
+        Largest contact force (N, magnitude, normal and friction) on the grapple in the period.
     """
     n = u.shape[0]
     q, v, s = joints[0], joints[1], joints[3]
@@ -295,19 +302,26 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         cy = gy + sy - damp * (sy - (ty - tpy))
         cz = gz + sz - damp * (sz - (tz - tpz)) - grav_h2
         fcx = fcy = fcz = 0.0
-        if contact_k > 0.0:
-            fcz = ground_force(gz, gpz, h, ground_z, contact_k, contact_c)
-            if fcz > 0.0:
-                contact_peak = max(contact_peak, fcz)
-                cz += fcz / mass_h2
-                # ... and its friction: stops the sliding within the step if mu f_n can (stable at any force)
-                dx, dy = cx - gx, cy - gy
-                slide = math.sqrt(dx * dx + dy * dy)
-                if slide > 0.0:
-                    stop = min(1.0, friction * fcz / mass_h2 / slide)
-                    cx -= stop * dx
-                    cy -= stop * dy
-                    fcx, fcy = -stop * dx * mass_h2, -stop * dy * mass_h2
+        for k in range(planes.shape[0]):  # ... and the contact surfaces' push and friction
+            nx_, ny_, nz_ = planes[k, 0], planes[k, 1], planes[k, 2]
+            depth = planes[k, 3] - (nx_ * gx + ny_ * gy + nz_ * gz)
+            fn = penalty_force(depth, planes[k, 3] - (nx_ * gpx + ny_ * gpy + nz_ * gpz), h, contact_k, contact_c)
+            if fn <= 0.0:
+                continue
+            cx += nx_ * fn / mass_h2
+            cy += ny_ * fn / mass_h2
+            cz += nz_ * fn / mass_h2
+            fcx, fcy, fcz = fcx + nx_ * fn, fcy + ny_ * fn, fcz + nz_ * fn
+            # friction: stops the sliding along the surface within the step if mu f_n can (stable at any force)
+            dx, dy, dz = cx - gx, cy - gy, cz - gz
+            dn = dx * nx_ + dy * ny_ + dz * nz_
+            dx, dy, dz = dx - dn * nx_, dy - dn * ny_, dz - dn * nz_
+            slide = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if slide > 0.0:
+                stop = min(1.0, friction * fn / mass_h2 / slide)
+                cx, cy, cz = cx - stop * dx, cy - stop * dy, cz - stop * dz
+                fcx, fcy, fcz = fcx - stop * dx * mass_h2, fcy - stop * dy * mass_h2, fcz - stop * dz * mass_h2
+        contact_peak = max(contact_peak, math.sqrt(fcx * fcx + fcy * fcy + fcz * fcz))
         # SHAKE: move along the previous rod direction until the rod has its length again
         ox, oy, oz = gx - tx, gy - ty, gz - tz
         dx, dy, dz = cx - nx, cy - ny, cz - nz
@@ -345,6 +359,9 @@ class SimulatedCrane:
         Initial time (s).
     rotator0 : float
         Initial grapple rotator angle (rad, within its limits; cranes with a rotator, else ignored).
+    obstacles : iterable of Obstacle
+        With ``params.contact``: the scene's obstacles the grapple touches besides the ground
+        (:class:`~motionlib.runtime.contact.ContactSurfaces`).
 
     Attributes
     ----------
@@ -377,6 +394,7 @@ class SimulatedCrane:
         qd0: Any = None,
         t0: float = 0.0,
         rotator0: float = 0.0,
+        obstacles: Iterable[Obstacle] = (),
     ):
         if not isinstance(crane, Crane):
             raise InputError(f"crane: expected a Crane, got {type(crane).__name__}")
@@ -423,6 +441,7 @@ class SimulatedCrane:
             raise InputError(f"crane {crane.name!r}: ground contact needs the grapple's mass (SimParams.load_mass_kg "
                              "or the crane file's dynamics.load_mass)")
         self._react = second and self._mass > 0.0
+        self._surfaces = ContactSurfaces(prm.contact, obstacles) if prm.contact is not None else None
         inv = [1.0 / float(i) for i in inertia] if inertia is not None else [0.0] * 4
         self._inv_inertia = np.array(inv + [0.0] * (self._n - 4))
         disp = crane.model.displacement
@@ -542,8 +561,9 @@ class SimulatedCrane:
             u, n_sub, h, j.state, 1.0 - math.exp(-h / j.tau), j.second_order, j.w2, j.zw2, j.a_relief,
             j.displacement, j.pump_flow, self._q_min, self._q_max, self._at_stop, self._g, self._pend,
             self.length_m, prm.gravity_m_s2, prm.swing_damping_per_s, self._mass, self._react, self._inv_inertia,
-            contact.ground_z if contact else 0.0, contact.stiffness_n_m if contact else 0.0,
-            contact.damping_n_s_m if contact else 0.0, contact.friction if contact else 0.0,
+            self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
+            contact.stiffness_n_m if contact else 0.0, contact.damping_n_s_m if contact else 0.0,
+            contact.friction if contact else 0.0,
         )
         self.hard_stop_hits += hits
         self.peak_pump_ratio = max(self.peak_pump_ratio, pump_ratio)

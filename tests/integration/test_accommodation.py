@@ -12,7 +12,7 @@ from motionlib.model.frames import SLEW_CRF, mrf_position, standard_mrfs
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.runtime.accommodation import AccommodationOptions, AccommodationSource, accommodation_source
-from motionlib.runtime.contact import ContactParams, ground_force
+from motionlib.runtime.contact import ContactParams, penalty_force
 from motionlib.runtime.control_types import OperatorInput
 from motionlib.runtime.controller import SharedController
 from motionlib.runtime.execute import ExecuteOptions, execute
@@ -81,10 +81,10 @@ def test_accommodation_rate_and_contact_law():
     with pytest.raises(InputError):
         AccommodationSource((-1e-4, 0.0, 0.0))
     k, c, h = 1e4, 100.0, 0.1
-    assert ground_force(0.6, 0.6, h, 0.5, k, c) == 0.0  # above the ground
-    assert ground_force(0.49, 0.5, h, 0.5, k, c) == pytest.approx(k * 0.01 + c * 0.1)  # entering at 0.1 m/s
-    assert ground_force(0.495, 0.49, h, 0.5, k, c) == pytest.approx(k * 0.005 - c * 0.05)  # leaving slowly
-    assert ground_force(0.4999, 0.49, h, 0.5, k, c) == 0.0  # leaving fast: no adhesion
+    assert penalty_force(-0.1, -0.1, h, k, c) == 0.0  # outside
+    assert penalty_force(0.01, 0.0, h, k, c) == pytest.approx(k * 0.01 + c * 0.1)  # entering at 0.1 m/s
+    assert penalty_force(0.005, 0.01, h, k, c) == pytest.approx(k * 0.005 - c * 0.05)  # leaving slowly
+    assert penalty_force(0.0001, 0.01, h, k, c) == 0.0  # leaving fast: no adhesion
 
 
 def test_stick_on_the_log_end_and_accommodation_at_once(lab):
@@ -118,30 +118,37 @@ def test_stick_on_the_log_end_and_accommodation_at_once(lab):
     assert sim.contact_force[2] == pytest.approx(0.8 * 1500.0, rel=0.03)
 
 
-def _execute_push(lab, options: ExecuteOptions):
-    """``execute`` in M4 with a stick script holding the right stick fully down for 5 s, grapple on the floor."""
+def _execute_push(lab, options: ExecuteOptions, grapple_at=(2.5, 0.4, 0.0)):
+    """``execute`` in M4 with a stick script holding the right stick fully down for 5 s from ``grapple_at`` (m)."""
     scene = Scene.load(ROOT / "obstacles" / "log-loading.yaml", crane=lab)
-    start = lab.ik([2.5, 0.4, scene.ground_z + lab.model.grapple_length], 0.3)
+    x, y, z = grapple_at
+    start = lab.ik([x, y, z + lab.model.grapple_length], 0.3)
     stick = ScriptedStick([[0.0, *PUSH, 0], [5.0, 0.0, 0.0, 0.0, 0.0, 0]])
     return execute(None, lab, scene, mode="M4", operator=stick, target=lab.fk(start), start_q=start,
                    options=options)
 
 
-def test_accommodation_through_execute_keeps_the_force_under_its_bound(lab):
+@pytest.mark.parametrize("where", ["floor", "log"])
+def test_accommodation_through_execute_keeps_the_force_under_its_bound(lab, where):
     """``ExecuteOptions.accommodation``: the source reads the plant's contact through the sensor hook.
 
-    Reference: the closed form of the steady push, ``f = v_stick / K_F = margin x bound``, and the
-    same run with the ground contact but no accommodation, which exceeds the bound.
+    The grapple rests on the floor, or on top of the log ``log-a1`` of the pick-up pile (a cylinder of
+    the scene: the contact is the log's, 0.2 m above the floor). Reference: the closed form of the
+    steady push, ``f = v_stick / K_F = margin x bound``, and the same run with the contact but no
+    accommodation, which exceeds the bound.
     """
     bound = 3000.0
-    with_acc = _execute_push(lab, ExecuteOptions(obstacle_guard=False, accommodation=AccommodationOptions(bound)))
-    log_f = with_acc.loop.diagnostics["peak_contact_force_n"]
+    at = {"floor": (2.5, 0.4, 0.0), "log": (0.0, 2.8, 0.2)}[where]
+    with_acc = _execute_push(lab, ExecuteOptions(obstacle_guard=False, accommodation=AccommodationOptions(bound)), at)
+    peak = with_acc.loop.diagnostics["peak_contact_force_n"]
     contact = ExecuteOptions(obstacle_guard=False, sim=SimParams(contact=ContactParams()))
-    without = _execute_push(lab, contact).loop.diagnostics["peak_contact_force_n"]
-    print(f"execute M4, stick down 5 s: peak contact force {log_f:.0f} N with accommodation (bound {bound:.0f} N), "
-          f"{without:.0f} N without")
-    assert 0.7 * bound < log_f < bound
+    without = _execute_push(lab, contact, at).loop.diagnostics["peak_contact_force_n"]
+    grapple_z = with_acc.arrays["tip_p"][-1, 2] - lab.model.grapple_length
+    print(f"execute M4 on the {where}, stick down 5 s: peak contact force {peak:.0f} N with accommodation "
+          f"(bound {bound:.0f} N), {without:.0f} N without; grapple ends at z = {grapple_z:.3f} m")
+    assert 0.7 * bound < peak < bound
     assert without > bound
+    assert grapple_z == pytest.approx(at[2], abs=0.06)  # held up by the floor or the log, a few cm in
     with pytest.raises(InputError, match="axes"):
         AccommodationOptions(axes="xw")
 

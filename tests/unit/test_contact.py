@@ -1,4 +1,4 @@
-"""The simulated crane's ground contact (motionlib.runtime.contact) against closed forms."""
+"""The simulated crane's contact with the ground and obstacles (motionlib.runtime.contact) against closed forms."""
 
 from __future__ import annotations
 
@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from motionlib.errors import InputError
-from motionlib.runtime.contact import ContactParams
+from motionlib.model.scene import Obstacle
+from motionlib.runtime.contact import ContactParams, ContactSurfaces
 from motionlib.runtime.plant import SimParams, SimulatedCrane
 
 Q0 = np.array([0.3, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
@@ -72,3 +73,54 @@ def test_friction_holds_the_pressed_grapple_while_the_tip_moves_a_little(lab):
 def test_contact_needs_the_grapple_mass(lab):
     with pytest.raises(InputError, match="grapple's mass"):
         SimulatedCrane(lab, Q0, SimParams(load_mass_kg=0.0, contact=ContactParams()))
+
+
+def _on_obstacle(lab, obstacle_at) -> SimulatedCrane:
+    """First-order joints at rest; ``obstacle_at(grapple)`` places the one obstacle; no ground in reach."""
+    grapple = np.array(SimulatedCrane(lab, Q0, SimParams(model="first_order")).grapple)
+    prm = SimParams(model="first_order", contact=ContactParams(ground_z=-10.0))
+    return SimulatedCrane(lab, Q0, prm, obstacles=[obstacle_at(grapple)])
+
+
+def test_resting_on_a_box_gives_the_spring_force_along_its_top_normal(lab):
+    """A box (a bunk's beam) whose top is 4 mm above the grapple point: f = k d straight up."""
+    depth = 0.004
+    sim = _on_obstacle(lab, lambda g: Obstacle("beam", "box", (g[0], g[1], g[2] + depth - 0.1), size=(0.4, 0.3, 0.2)))
+    for _ in range(200):
+        sim.advance((0.0, 0.0, 0.0, 0.0), DT)
+    fx, fy, fz = sim.contact_force
+    assert fz == pytest.approx(ContactParams().stiffness_n_m * depth, rel=1e-6)
+    assert np.hypot(fx, fy) < 1e-6 * fz  # fcl's nearest points: GJK accuracy
+
+
+def test_a_log_is_linearised_at_its_radial_normal():
+    """Points near a horizontal log (cylinder along x, r = 0.1 m, 1.5 m long), seeded.
+
+    Closed form: the outward normal at the nearest surface point is the radial direction from the
+    axis, and the half-space's depth at the point is ``r - |p - axis|`` (fcl's GJK on a cylinder:
+    depth to 1e-5 m, normal to 2e-2, about 1 degree).
+    """
+    r = 0.1
+    log = Obstacle("log", "cylinder", (0.0, 0.0, 0.0), rpy=(0.0, np.pi / 2, 0.0), radius=r, length=1.5)
+    surfaces = ContactSurfaces(ContactParams(ground_z=-10.0), [log])
+    rng = np.random.default_rng(7)
+    for _ in range(50):
+        angle, dist, x = rng.uniform(0.0, 2 * np.pi), rng.uniform(0.08, 0.14), rng.uniform(-0.6, 0.6)
+        p = np.array([x, dist * np.cos(angle), dist * np.sin(angle)])
+        planes = surfaces.planes(tuple(p))
+        assert planes.shape == (2, 4)  # the ground, then the log
+        n, d = planes[1, :3], planes[1, 3]
+        assert d - n @ p == pytest.approx(r - dist, abs=1e-5)
+        np.testing.assert_allclose(n, [0.0, np.cos(angle), np.sin(angle)], atol=2e-2)
+
+
+def test_only_near_obstacles_give_planes_and_meshes_none(lab):
+    box = Obstacle("box", "box", (0.0, 0.0, 0.5), size=(1.0, 1.0, 1.0))
+    mesh = Obstacle("m", "mesh", (0.0, 0.0, 0.0), vertices=((0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)),
+                    triangles=((0, 1, 2), (0, 1, 3), (0, 2, 3), (1, 2, 3)))
+    surfaces = ContactSurfaces(ContactParams(ground_z=0.0), [box, mesh])
+    np.testing.assert_array_equal(surfaces.planes((3.0, 3.0, 1.0)), [[0.0, 0.0, 1.0, 0.0]])  # the ground only
+    planes = surfaces.planes((0.1, 0.2, 1.05))  # 5 cm above the box's top
+    np.testing.assert_allclose(planes, [[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 1.0]], atol=1e-6)  # fcl: GJK accuracy
+    inside = surfaces.planes((0.45, 0.0, 0.5))  # inside, 5 cm from the +x face
+    np.testing.assert_allclose(inside[1], [1.0, 0.0, 0.0, 0.5], atol=1e-6)
