@@ -14,10 +14,10 @@ Frames on this crane
   heading ``q1`` (out from the slewing axis), y = z x x. The grapple hangs from the tip and turns
   with the slew (as :meth:`motionlib.model.kinematics.Crane.grapple_capsules` holds the log along the
   heading by default), so G's angular velocity is ``omega = qd1 z``. On a crane with the grapple rotator
-  q5 the grapple's yaw is ``q1 + q5`` (:meth:`~motionlib.model.kinematics.Crane.log_yaw`; its point
-  Jacobian is :meth:`~motionlib.model.kinematics.Crane.log_point_jacobian`); the frame sources here still
-  take G along the heading (the rotator held at 0), a limitation of the frame sources on such cranes. Swing is
-  not part of the kinematics (it is the plant's).
+  q5, G turns with the grapple: its yaw is ``psi = q1 + q5``
+  (:meth:`~motionlib.model.kinematics.Crane.log_yaw`) and ``omega = (qd1 + qd5) z``; the functions
+  here take ``q5`` and ``qd5`` (default 0: a crane without a rotator). Swing is not part of the
+  kinematics (it is the plant's).
 * **MRF** (:class:`PointFrame`): a point rigidly attached to G, given by its offset in G (m). The
   crane's own standard points are :func:`standard_mrfs` (tip, grapple centre, log centre, log end);
   scene files declare more (docs/scene-format.md, ``frames``).
@@ -30,7 +30,10 @@ redundant for position). The angular rate of G is therefore not free: it is the 
 commanded MRF rate implies. G's points move by the slew (tangentially, ``qd1 (R + o_x)`` at the
 MRF's horizontal distance ``R + o_x`` from the slewing axis, ``R`` the tip's signed radial distance)
 and by the boom, jib and telescope (in the boom plane only), so ``qd1 = e_t . v_MRF / (R + o_x)``;
-:func:`wrist_rate` then applies 001 eq. 1 with ``omega = qd1 z``. The conversion is exact
+:func:`wrist_rate` then applies 001 eq. 1 with ``omega = qd1 z``. With the rotator, which the
+operator or the automation commands on its own axis, the MRF at ``r = Rz(q1 + q5) o`` also turns
+at the rotator's measured rate ``qd5``: ``e_t . v_MRF = qd1 R + (qd1 + qd5) (e_r . r)``, so
+``qd1 = (e_t . v_MRF - qd5 e_r . r) / (R + e_r . r)`` and ``omega = (qd1 + qd5) z``. The conversion is exact
 (tested against finite differences of :func:`mrf_position`); it is singular when the MRF is on the
 slewing axis (``R + o_x = 0``), where no slew moves it sideways.
 """
@@ -151,29 +154,33 @@ def standard_mrfs(model: CraneModel) -> dict[str, PointFrame]:
     }
 
 
-def offset_in_base(q1: float, offset: Vec3) -> Vec3:
-    """The MRF's offset ``r = Rz(q1) o`` (3,) from the tip in base coordinates (m)."""
-    c, s = math.cos(q1), math.sin(q1)
+def offset_in_base(yaw: float, offset: Vec3) -> Vec3:
+    """The MRF's offset ``r = Rz(yaw) o`` (3,) from the tip in base coordinates (m); ``yaw = q1 + q5`` (rad)."""
+    c, s = math.cos(yaw), math.sin(yaw)
     return (c * offset[0] - s * offset[1], s * offset[0] + c * offset[1], offset[2])
 
 
-def mrf_position(tip: Vec3, q1: float, offset: Vec3) -> Vec3:
-    """MRF position (3,) (m, base frame): the tip (3,) plus the offset (3,) carried by G at slew ``q1`` (rad)."""
-    r = offset_in_base(q1, offset)
+def mrf_position(tip: Vec3, yaw: float, offset: Vec3) -> Vec3:
+    """MRF position (3,) (m, base frame): the tip (3,) plus the offset (3,) carried by G at ``yaw = q1 + q5`` (rad)."""
+    r = offset_in_base(yaw, offset)
     return (tip[0] + r[0], tip[1] + r[1], tip[2] + r[2])
 
 
-def slew_rate_for(tip: Vec3, q1: float, offset: Vec3, v_mrf: Vec3) -> float:
+def slew_rate_for(tip: Vec3, q1: float, offset: Vec3, v_mrf: Vec3, q5: float = 0.0, qd5: float = 0.0) -> float:
     """The slew rate ``qd1`` (rad/s) that the MRF rate ``v_mrf`` (3,) (m/s, base) implies (module docstring).
 
-    ``qd1 = e_t . v_MRF / (R + o_x)`` with ``e_t = (-sin q1, cos q1, 0)`` and ``R = e_r . p_tip`` the tip's
-    signed radial distance (m). 0 when the MRF is on the slewing axis.
+    ``qd1 = (e_t . v_MRF - qd5 e_r . r) / (R + e_r . r)`` with ``e_t = (-sin q1, cos q1, 0)``,
+    ``e_r = (cos q1, sin q1, 0)``, ``r = Rz(q1 + q5) o`` and ``R = e_r . p_tip`` the tip's signed radial
+    distance (m); without a rotator (``q5 = qd5 = 0``) ``e_r . r = o_x``. 0 when the MRF is on the
+    slewing axis.
     """
     c, s = math.cos(q1), math.sin(q1)
-    arm = c * tip[0] + s * tip[1] + offset[0]
+    r = offset_in_base(q1 + q5, offset)
+    r_radial = c * r[0] + s * r[1]
+    arm = c * tip[0] + s * tip[1] + r_radial
     if abs(arm) < AXIS_EPS_M:
         return 0.0
-    return (-s * v_mrf[0] + c * v_mrf[1]) / arm
+    return (-s * v_mrf[0] + c * v_mrf[1] - qd5 * r_radial) / arm
 
 
 def wrist_rate(v_mrf: Vec3, omega: Vec3, r: Vec3) -> Vec3:
@@ -201,21 +208,24 @@ def wrist_rate(v_mrf: Vec3, omega: Vec3, r: Vec3) -> Vec3:
     )
 
 
-def tip_rate_for(tip: Vec3, q1: float, offset: Vec3, v_mrf: Vec3) -> Vec3:
+def tip_rate_for(tip: Vec3, q1: float, offset: Vec3, v_mrf: Vec3, q5: float = 0.0, qd5: float = 0.0) -> Vec3:
     """Tip velocity (3,) (m/s, base) that moves the MRF at ``offset`` (G, m) with ``v_mrf`` (3,) (m/s, base).
 
-    001 eq. 1 (:func:`wrist_rate`) with ``omega = qd1 z``, ``qd1`` from :func:`slew_rate_for`.
+    001 eq. 1 (:func:`wrist_rate`) with ``omega = (qd1 + qd5) z``, ``qd1`` from :func:`slew_rate_for`;
+    ``q5`` (rad) and ``qd5`` (rad/s): the grapple rotator's measured angle and rate (0 without one).
     """
-    wz = slew_rate_for(tip, q1, offset, v_mrf)
-    return wrist_rate(v_mrf, (0.0, 0.0, wz), offset_in_base(q1, offset))
+    wz = slew_rate_for(tip, q1, offset, v_mrf, q5, qd5) + qd5
+    return wrist_rate(v_mrf, (0.0, 0.0, wz), offset_in_base(q1 + q5, offset))
 
 
-def mrf_jacobian(jac: tuple[float, ...], q1: float, offset: Vec3) -> tuple[float, ...]:
-    """MRF Jacobian ``d p_MRF / d q`` (3, 4) flattened row by row, from the tip Jacobian (12,).
+def mrf_jacobian(jac: tuple[float, ...], q1: float, offset: Vec3, q5: float = 0.0) -> tuple[float, ...]:
+    """MRF Jacobian ``d p_MRF / d q`` (3, 4) of the arm's joints flattened row by row, from the tip Jacobian (12,).
 
-    ``v_MRF = J qd + qd1 z x r``: the tip Jacobian plus ``z x r`` in the slew column.
+    ``v_MRF = J qd + (qd1 + qd5) z x r``, ``r = Rz(q1 + q5) o``: the tip Jacobian plus ``z x r`` in the
+    slew column (the rotator's own column, ``z x r``, is
+    :meth:`~motionlib.model.kinematics.Crane.log_point_jacobian`'s).
     """
-    r = offset_in_base(q1, offset)
+    r = offset_in_base(q1 + q5, offset)
     out = list(jac)
     out[0] -= r[1]
     out[4] += r[0]

@@ -95,15 +95,19 @@ class CraneState:
         The grapple's offset from the tip (m, base frame), as angle sensors on the grapple's
         two-axis link measure it (the rod length times the direction of the rod); None: not
         measured (the controller's swing damping then does nothing).
+    rotator : tuple of 2 float
+        The grapple rotator's angle q5 (rad) and rate (rad/s); (0, 0) without a rotator.
     """
 
-    __slots__ = ("t", "q", "qd", "swing")
+    __slots__ = ("t", "q", "qd", "swing", "rotator")
 
-    def __init__(self, t: float, q: Sequence[float], qd: Sequence[float], swing: Sequence[float] | None = None):
+    def __init__(self, t: float, q: Sequence[float], qd: Sequence[float], swing: Sequence[float] | None = None,
+                 rotator: tuple[float, float] = (0.0, 0.0)):
         self.t = t
         self.q = q
         self.qd = qd
         self.swing = swing
+        self.rotator = rotator
 
     def __repr__(self) -> str:
         return f"CraneState(t={self.t!r}, q={tuple(self.q)!r}, qd={tuple(self.qd)!r})"

@@ -79,6 +79,7 @@ from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, Positi
 from .tracker import PathTracker, TrackerParams
 
 _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
+_NO_ROTATOR = (0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
 
@@ -417,6 +418,7 @@ class SharedController:
         p, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
         ctx = self._ctx
         ctx.t, ctx.q, ctx.qd, ctx.p, ctx.jac, ctx.axes = t, q, qd_meas, p, jac, axes
+        ctx.q5, ctx.qd5 = getattr(state, "rotator", _NO_ROTATOR)
         ctx.tip_speed = _tip_speed(jac, qd_meas)
         st.p_tip = p
 

@@ -11,6 +11,10 @@ base frame, the slew-following frame or a view frame). Each step it
 3. converts the MRF rate to the tip rate the controller resolves, by 001 eq. 1
    (:func:`motionlib.model.frames.tip_rate_for`).
 
+On a crane with the grapple rotator the MRF turns with the grapple (G's yaw ``q1 + q5``, the
+rotator's measured angle and rate from the step's context); the ``slew`` CRF keeps the boom's
+heading.
+
 It plugs into the summing junction like any source
 (:meth:`motionlib.runtime.controller.SharedController.add_source`, or as the controller's
 ``joystick``); the wrapped source keeps its role, gains and enable switch.
@@ -28,6 +32,7 @@ from ..model.frames import (
     PointFrame,
     mrf_jacobian,
     mrf_position,
+    offset_in_base,
     rotate,
     rotate_back,
     standard_mrfs,
@@ -83,20 +88,22 @@ class FrameSource(RateSource):
 
     def _view(self, ctx: StepContext) -> StepContext:
         """The context the wrapped source sees: the MRF in CRF coordinates."""
-        q1, off, jac = ctx.q[0], self.mrf.offset, ctx.jac
-        p = mrf_position(ctx.p, q1, off)
-        jm = mrf_jacobian(jac, q1, off)
+        q1, q5, off, jac = ctx.q[0], ctx.q5, self.mrf.offset, ctx.jac
+        p = mrf_position(ctx.p, q1 + q5, off)
+        jm = mrf_jacobian(jac, q1, off, q5)
         rot = self.crf.rotation(q1)
         o = self.crf.origin
         v = self._ctx
-        v.t, v.dt, v.q, v.qd, v.axes = ctx.t, ctx.dt, ctx.q, ctx.qd, ctx.axes
+        v.t, v.dt, v.q, v.qd, v.axes, v.q5, v.qd5 = ctx.t, ctx.dt, ctx.q, ctx.qd, ctx.axes, q5, ctx.qd5
         v.p = rotate_back(rot, (p[0] - o[0], p[1] - o[1], p[2] - o[2]))
         cols = [rotate_back(rot, (jm[c], jm[4 + c], jm[8 + c])) for c in range(4)]
         v.jac = tuple(cols[c][r] for r in range(3) for c in range(4))
         qd = ctx.qd
         speed2 = 0.0
+        r_base = offset_in_base(q1 + q5, off)
+        turn = (-r_base[1] * ctx.qd5, r_base[0] * ctx.qd5, 0.0)  # the rotator's part, qd5 z x r
         for r in range(3):
-            x = jm[4 * r] * qd[0] + jm[4 * r + 1] * qd[1] + jm[4 * r + 2] * qd[2] + jm[4 * r + 3] * qd[3]
+            x = jm[4 * r] * qd[0] + jm[4 * r + 1] * qd[1] + jm[4 * r + 2] * qd[2] + jm[4 * r + 3] * qd[3] + turn[r]
             speed2 += x * x
         v.tip_speed = math.sqrt(speed2)
         self.p_mrf = p
@@ -107,7 +114,7 @@ class FrameSource(RateSource):
         r = inner.rate(self._view(ctx))
         self.s_p, self.deviation_m, self.dist_end_m = inner.s_p, inner.deviation_m, inner.dist_end_m
         v_mrf = rotate(self.crf.rotation(ctx.q[0]), (r[0], r[1], r[2]))
-        return tip_rate_for(ctx.p, ctx.q[0], self.mrf.offset, v_mrf)
+        return tip_rate_for(ctx.p, ctx.q[0], self.mrf.offset, v_mrf, ctx.q5, ctx.qd5)
 
     def nullspace(self, ctx: StepContext) -> Vec4 | None:
         return self.inner.nullspace(ctx)

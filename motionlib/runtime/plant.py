@@ -479,9 +479,10 @@ class SimulatedCrane:
 
     # --------------------------------------------------------------- read-out
     def state(self) -> CraneState:
-        """The measured state (time, joint positions, joint velocities, the grapple's offset from the tip)."""
+        """The measured state (time, joint positions and velocities, the grapple's offset from the tip, the rotator)."""
         g, p = self.grapple, self.tip
-        return CraneState(self.t, self.q, self.qd, (g[0] - p[0], g[1] - p[1], g[2] - p[2]))
+        return CraneState(self.t, self.q, self.qd, (g[0] - p[0], g[1] - p[1], g[2] - p[2]),
+                          (self.rotator_q, self.rotator_qd))
 
     @property
     def swing_rad(self) -> float:

@@ -66,9 +66,11 @@ class StepContext:
         Measured tip speed ``|J qd|`` (m/s).
     axes : tuple of 4 float
         Sanitised stick axes in [-1, 1] (zeros when the input is stale).
+    q5, qd5 : float
+        The grapple rotator's measured angle (rad) and rate (rad/s); 0 without one.
     """
 
-    __slots__ = ("t", "dt", "q", "qd", "p", "jac", "tip_speed", "axes")
+    __slots__ = ("t", "dt", "q", "qd", "p", "jac", "tip_speed", "axes", "q5", "qd5")
 
     def __init__(self) -> None:
         self.t = 0.0
@@ -79,6 +81,8 @@ class StepContext:
         self.jac: tuple[float, ...] = (0.0,) * 12
         self.tip_speed = 0.0
         self.axes: Vec4 = (0.0, 0.0, 0.0, 0.0)
+        self.q5 = 0.0
+        self.qd5 = 0.0
 
 
 class RateSource(ABC):
