@@ -44,8 +44,8 @@ from .output import emit_json
 @vector_option("vision-gains", 3, "K_V per camera axis (1/s; along the boom, to its right, down; 0 disables an axis). "
                "Default 1,1,1.")
 @click.option("--accommodation", "force_bound", type=click.FloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
-              help="Force accommodation (001 section 2.5) with the ground contact on: a steady push of the stick "
-              "into the ground settles at 0.8 of this force (N).")
+              help="Force accommodation (001 section 2.5), with the contact of the ground and the scene's obstacles "
+              "on: a steady push of the stick into the ground settles at 0.8 of this force (N).")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
               help="Base axes of the accommodation (any of x, y, z).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
@@ -148,7 +148,7 @@ def _print_report(s: dict[str, Any]) -> None:
     if "vision_target" in s:
         click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m")
     if "peak_contact_force_n" in s:
-        click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground)")
+        click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground and obstacles)")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")

@@ -315,4 +315,3 @@ def execute(
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT
     reason = "" if loop.settled else f"the tip had not settled after the time limit of {opts.time_limit_s:g} s"
     return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory)
-

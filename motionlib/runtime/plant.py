@@ -92,7 +92,7 @@ from ..model.kinematics import Crane
 from ..model.scene import Obstacle
 from .contact import ContactParams, ContactSurfaces, penalty_force
 from .control_types import GRAVITY_M_S2, CraneState
-from .hydraulics import HydraulicJoints, Q, V, actuators_substep
+from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
 
@@ -162,7 +162,8 @@ class SimParams:
         Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``. Assumption.
     gravity_m_s2 : float
     contact : ContactParams or None
-        The grapple's contact with the ground (:mod:`motionlib.runtime.contact`); None: none.
+        The grapple's contact with the ground and with the obstacles given to
+        :class:`SimulatedCrane` (:mod:`motionlib.runtime.contact`); None: none.
     """
 
     model: str = "second_order"
@@ -210,6 +211,17 @@ GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV, ROD_FORCE, CONTACT_FORCE = range(6)
 
 
 @njit(cache=True)
+def joint_load(jac, fx: float, fy: float, fz: float, inv_inertia, out) -> None:
+    """The load per unit inertia ``f_i = (J^T F)_i / I_i`` of the arm's joints, into ``out`` (n,) (module docstring).
+
+    ``jac`` (12,): the tip Jacobian row by row; ``F = (fx, fy, fz)`` (N): the rod's force on the tip;
+    ``inv_inertia`` (n,): ``1 / I_i``. The rotator's entry (if any) is left as it is.
+    """
+    for i in range(4):
+        out[i] = (jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv_inertia[i]
+
+
+@njit(cache=True)
 def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2: float, zw2: float,
                      a_relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
                      gravity: float, damping: float, mass: float, react: bool, inv_inertia, planes,
@@ -232,7 +244,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         The crane's geometry (:func:`motionlib.model.fast_kinematics.geometry`).
     pend : ndarray, shape (6, 3)
         Rows ``GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV`` (m) and the forces ``ROD_FORCE`` (of the rod
-        on the tip) and ``CONTACT_FORCE`` (of the ground on the grapple) (N) of the last substep.
+        on the tip) and ``CONTACT_FORCE`` (of the contact surfaces on the grapple) (N) of the last substep.
     length, gravity, damping, mass : float
         Rod length (m), gravity (m/s^2), swing damping ``c`` (1/s), grapple mass (kg).
     react : bool
@@ -257,7 +269,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         Largest contact force (N, magnitude, normal and friction) on the grapple in the period.
     """
     n = u.shape[0]
-    q, v, s = joints[0], joints[1], joints[3]
+    q, v, s = joints[Q], joints[V], joints[S]
     _, jac = tip_point_jacobian(g, q[0], q[1], q[2], q[3])
     f = np.zeros(n)
     hits = 0
@@ -274,14 +286,13 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     fx, fy, fz = pend[ROD_FORCE, 0], pend[ROD_FORCE, 1], pend[ROD_FORCE, 2]
     fcx = fcy = fcz = contact_peak = 0.0
     for _ in range(n_sub):
-        if react:  # load per unit inertia f_i = (J^T F)_i / I_i, J at the start of the period
-            for i in range(4):
-                f[i] = (jac[i] * fx + jac[4 + i] * fy + jac[8 + i] * fz) * inv_inertia[i]
+        if react:
+            joint_load(jac, fx, fy, fz, inv_inertia, f)
         share = actuators_substep(joints, u, f, h, alpha, second_order, w2, zw2, a_relief, displacement, pump_flow)
         if pump_flow > 0.0:
             r = 0.0
             for i in range(n):
-                r += displacement[i] * abs(joints[4, i])
+                r += displacement[i] * abs(joints[Y, i])
             pump_ratio = max(pump_ratio, r / pump_flow)
         for i in range(n):  # end stops: clamp, stop the motion into the stop, count new hits
             if q[i] >= q_max[i] or q[i] <= q_min[i]:
@@ -379,7 +390,7 @@ class SimulatedCrane:
         Largest flow delivered to the joints (the rotator's included) over the pump's flow so far
         (<= 1 with pump sharing).
     peak_contact_force_n : float
-        Largest normal force (N) of the ground on the grapple so far (0 without ``contact``).
+        Largest contact force (N, magnitude) on the grapple so far (0 without ``contact``).
     rotator_q, rotator_qd : float
         The grapple rotator's position (rad) and velocity (rad/s); 0 without a rotator.
     joints : HydraulicJoints
@@ -438,7 +449,7 @@ class SimulatedCrane:
             raise InputError(f"crane {crane.name!r}: a load mass needs joint_inertia (SimParams or the crane file)")
         self._mass = float(mass or 0.0)
         if prm.contact is not None and self._mass <= 0.0:
-            raise InputError(f"crane {crane.name!r}: ground contact needs the grapple's mass (SimParams.load_mass_kg "
+            raise InputError(f"crane {crane.name!r}: contact needs the grapple's mass (SimParams.load_mass_kg "
                              "or the crane file's dynamics.load_mass)")
         self._react = second and self._mass > 0.0
         self._surfaces = ContactSurfaces(prm.contact, obstacles) if prm.contact is not None else None
@@ -465,8 +476,8 @@ class SimulatedCrane:
         if self._react:
             self._pend[ROD_FORCE, 2] = -self._mass * prm.gravity_m_s2  # the rod's pull on the tip (N)
         self._h_last = h
-        f = [sum(jac[4 * r + i] * self._pend[ROD_FORCE, r] for r in range(3)) * self._inv_inertia[i]
-             for i in range(4)] + [0.0] * (self._n - 4)
+        f = np.zeros(self._n)
+        joint_load(jac, *self._pend[ROD_FORCE].tolist(), self._inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f, second_order=second,
@@ -494,7 +505,7 @@ class SimulatedCrane:
 
     @property
     def contact_force(self) -> tuple[float, float, float]:
-        """Force (3,) (N, base frame) of the ground on the grapple in the last substep (0 without ``contact``)."""
+        """Force (3,) (N, base) of the ground and obstacles on the grapple in the last substep (0 without contact)."""
         fx, fy, fz = self._pend[CONTACT_FORCE].tolist()
         return (fx, fy, fz)
 
