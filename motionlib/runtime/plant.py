@@ -477,10 +477,11 @@ class SimulatedCrane:
             self._pend[ROD_FORCE, 2] = -self._mass * prm.gravity_m_s2  # the rod's pull on the tip (N)
         self._h_last = h
         f = np.zeros(self._n)
-        joint_load(jac, *self._pend[ROD_FORCE].tolist(), self._inv_inertia, f)
+        fx, fy, fz = self._pend[ROD_FORCE].tolist()
+        joint_load(jac, fx, fy, fz, self._inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
         self.joints = HydraulicJoints(
-            self.q + extra, self.qd + (0.0,) * len(extra), f, second_order=second,
+            self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
             valve_tau_s=prm.tau_s, omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
             a_relief=(prm.accel_factor * full["qdd_max"]).tolist(),
             displacement=list(disp) if shared and disp is not None else None,
