@@ -37,6 +37,16 @@ from ..model.kinematics import Crane
 from ..model.scene import Scene
 from .sources import RateSource, StepContext, Vec3
 
+#: Where a :class:`SimulatedCamera` can be mounted.
+MOUNTS: tuple[str, ...] = ("tip", "grapple")
+
+
+def check_mount(mount: Any, name: str = "mount") -> str:
+    """``mount`` if it is one of :data:`MOUNTS`, else InputError naming ``name``."""
+    if mount not in MOUNTS:
+        raise InputError(f"{name}: expected 'tip' or 'grapple', got {mount!r}")
+    return str(mount)
+
 
 @dataclass(frozen=True)
 class CameraParams:
@@ -122,9 +132,7 @@ class SimulatedCamera:
         self.params = params or CameraParams()
         self.target: Vec3 = as_vec3(check_vector(target, 3, "target"))
         self.offset: Vec3 = as_vec3(check_vector(offset, 3, "offset"))
-        if mount not in ("tip", "grapple"):
-            raise InputError(f"mount: expected 'tip' or 'grapple', got {mount!r}")
-        self.mount = mount
+        self.mount = check_mount(mount)
         self._rng = random.Random(int(self.params.seed))
         self._pending: deque[tuple[float, CameraFrame]] = deque()
         self._latest: CameraFrame | None = None
@@ -343,8 +351,7 @@ class VisionOptions:
         if not isinstance(self.camera, CameraParams):
             raise InputError(f"vision camera: expected CameraParams, got {type(self.camera).__name__}")
         check_int(self.arrive_frames, "arrive_frames", lo=1, hi=10_000)
-        if self.mount not in ("grapple", "tip"):
-            raise InputError(f"vision mount: expected 'grapple' or 'tip', got {self.mount!r}")
+        check_mount(self.mount, "vision mount")
         if not isinstance(self.enabled, bool):
             raise InputError(f"vision enabled: expected True or False, got {self.enabled!r}")
 
