@@ -105,6 +105,11 @@ class ContactSurfaces:
         self._ground = np.array([[0.0, 0.0, 1.0, params.ground_z]])
         self._point = fcl.CollisionObject(_POINT, fcl.Transform())
 
+    @property
+    def has_obstacles(self) -> bool:
+        """Obstacles besides the ground (the half-spaces then depend on where the grapple is)."""
+        return bool(self._objects)
+
     def planes(self, p: tuple[float, float, float]) -> np.ndarray:
         """Half-spaces ``n . x >= d`` (k, 4), rows ``(n_x, n_y, n_z, d)``, for the grapple point ``p`` (3,) (m).
 

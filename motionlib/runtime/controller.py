@@ -61,6 +61,25 @@ from ..errors import InputError
 from ..model.fast_kinematics import TipKinematics, Vec3, Vec4
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
+from .command import (
+    COMMAND_STATE,
+    EV_HANDOVER,
+    S_AUTHORITY,
+    S_AUTO,
+    S_C_A,
+    S_C_O,
+    S_CMD,
+    S_DEV,
+    S_FLAGS,
+    S_P,
+    S_S_P,
+    S_SIGMA,
+    S_SPEED_O,
+    S_T,
+    command_consts,
+    command_law,
+    finish_command,
+)
 from .control_types import (
     GRAVITY_M_S2,
     Authority,
@@ -73,7 +92,6 @@ from .control_types import (
     OperatorInput,
 )
 from .mixer import Mixer, MixerParams, ObstacleGuard
-from .resolved_rate import resolve_rate_fast
 from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
 from .tracker import PathTracker, TrackerParams
@@ -84,8 +102,8 @@ _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
 
 _NONFINITE, _RANGE, _STALE, _BAD_STATE = int(Flag.NONFINITE_INPUT), int(Flag.OUT_OF_RANGE_INPUT), 4, 8
-_VEL, _ACC, _POS, _GUARD, _DAMPED = 16, 32, 64, 128, 256
-_MANUAL, _TRADED, _SHARED, _STOPPED = Authority.MANUAL, Authority.TRADED, Authority.SHARED, Authority.STOPPED
+_STOPPED = Authority.STOPPED
+_AUTHORITIES = tuple(Authority)
 
 
 class SharedController:
@@ -140,33 +158,39 @@ class SharedController:
         span = crane.q_max - crane.q_min
         margin = prm.limit_margin_frac * span
         two_ab = 2.0 * prm.brake_decel_frac * crane.qdd_max
-        self._q_lo = tuple((crane.q_min + margin).tolist())  # stop targets inside the position limits
-        self._q_hi = tuple((crane.q_max - margin).tolist())
-        self._v_lo = tuple(crane.qd_min.tolist())
-        self._v_hi = tuple(crane.qd_max.tolist())
-        # largest change of the command per step: the command ramp (a safety option), or none
-        dv_cap = crane.qdd_max * prm.dt_s if prm.command_ramp else np.full(4, math.inf)
-        self._dv_cap = tuple(dv_cap.tolist())
-        self._two_a_brake = tuple(two_ab.tolist())
-        self._far_hi = tuple((crane.qd_max**2 / two_ab).tolist())  # beyond: the braking curve does not bind
-        self._far_lo = tuple((crane.qd_min**2 / two_ab).tolist())
-        # positions (predicted) between these are beyond every braking curve: the position limits do not bind
-        self._near_lo = tuple((crane.q_min + margin + crane.qd_min**2 / two_ab).tolist())
-        self._near_hi = tuple((crane.q_max - margin - crane.qd_max**2 / two_ab).tolist())
-        # positions between these have the nominal resolved-rate weights (outside the joint-limit fade)
-        self._w_free_lo = tuple((crane.q_min + prm.limit_weight_margin * span).tolist())
-        self._w_free_hi = tuple((crane.q_max - prm.limit_weight_margin * span).tolist())
-        self._lag = float(prm.lag_s)
         # swing damping (ControllerParams.swing_damping): tip velocity k_s r_h, k_s = 2 zeta_s sqrt(g / L)
         self.swing_gain_per_s = 2.0 * prm.swing_damping * math.sqrt(GRAVITY_M_S2 / crane.model.grapple_length)
-        self._sway_max = float(prm.swing_damping_max_m_s)
-        self._swing_meas: Any = None
-        self._w_lo = tuple(crane.q_min.tolist())
-        self._w_hi = tuple(crane.q_max.tolist())
-        self._w_width = tuple((prm.limit_weight_margin * span).tolist())
-        self._mid = tuple((0.5 * (crane.q_min + crane.q_max)).tolist())
-        self._activity_rate = tuple((prm.operator_activity_axis * speed).tolist())
-        self._inv_span2 = tuple((1.0 / span**2).tolist())
+        #: The command law's constants (:func:`motionlib.runtime.command.command_consts`).
+        self.consts = command_consts(
+            {
+                # largest change of the command per step: the command ramp (a safety option), or none
+                "dv_cap": crane.qdd_max * prm.dt_s if prm.command_ramp else np.full(4, math.inf),
+                "v_lo": crane.qd_min, "v_hi": crane.qd_max,
+                # positions (predicted) between these are beyond every braking curve: the position limits do not bind
+                "near_lo": crane.q_min + margin + crane.qd_min**2 / two_ab,
+                "near_hi": crane.q_max - margin - crane.qd_max**2 / two_ab,
+                "q_lo": crane.q_min + margin, "q_hi": crane.q_max - margin,  # stop targets inside the position limits
+                "two_a_brake": two_ab,
+                "far_hi": crane.qd_max**2 / two_ab, "far_lo": crane.qd_min**2 / two_ab,  # beyond: no braking curve
+                # positions between these have the nominal resolved-rate weights (outside the joint-limit fade)
+                "w_free_lo": crane.q_min + prm.limit_weight_margin * span,
+                "w_free_hi": crane.q_max - prm.limit_weight_margin * span,
+                "w_lo": crane.q_min, "w_hi": crane.q_max, "w_width": prm.limit_weight_margin * span,
+                "w_nom": self._w_nom, "activity_rate": prm.operator_activity_axis * speed,
+                "mid": 0.5 * (crane.q_min + crane.q_max), "inv_span2": 1.0 / span**2,
+            },
+            {
+                "lag": prm.lag_s, "weight_floor": prm.limit_weight_floor, "weight_raise": prm.operator_weight_raise,
+                "weight_lower": prm.operator_weight_lower, "centering_gain": prm.centering_gain_per_s,
+                "swing_gain": self.swing_gain_per_s, "sway_max": prm.swing_damping_max_m_s,
+                "sigma_threshold": prm.sigma_threshold, "damping_max": prm.damping_max, "dt": prm.dt_s,
+                "traded": self.mode.authority == "traded", "joint_operation": self.mode.joint_operation,
+            },
+        )
+        #: The command law's state (:data:`motionlib.runtime.command.COMMAND_STATE`), behind :attr:`status`.
+        self.state = np.zeros(len(COMMAND_STATE))
+        st0 = ControllerStatus()
+        self.state[[S_C_O, S_S_P, S_DEV, S_SIGMA]] = st0.c_o, st0.s_p, st0.deviation_m, st0.sigma_min
         if joystick is None:
             if self.mode.joint_operation:
                 joystick = JointJoystick(speed.tolist())
@@ -187,12 +211,11 @@ class SharedController:
         self.events: list[Event] = []
         self._ctx = StepContext()
         self._ctx.dt = prm.dt_s
-        self._prev: Vec4 = _ZERO4
         self._started = False
-        self._auto_active = False
         self._motion_end: Vec3 | None = None
         self._stale = False
         self._nonfinite = False
+        self._swing = (math.nan, math.nan)  # the grapple's measured horizontal offset (m)
         #: The grapple rotator's axis of the summing junction (cranes with a rotator), else None.
         self.rotator: RotatorChannel | None = (
             RotatorChannel(crane, prm.dt_s, RotatorParams(limit_margin_frac=min(prm.limit_margin_frac, 0.49),
@@ -334,7 +357,7 @@ class SharedController:
         self.mixer.reset()
         if self.guard is not None:
             self.guard.reset()
-        self._auto_active = self.mode.authority != "manual"
+        self.state[S_AUTO] = float(self.mode.authority != "manual")
         self.events.append(Event(float(t), "motion_start", detail))
 
     @property
@@ -345,7 +368,7 @@ class SharedController:
     @property
     def automation_active(self) -> bool:
         """True while an automated motion is in control (not arrived, aborted or handed over)."""
-        return self._auto_active
+        return bool(self.state[S_AUTO])
 
     @property
     def motion_end_p(self) -> Vec3 | None:
@@ -354,10 +377,10 @@ class SharedController:
         The path's end ``q(l)`` for :meth:`start_motion`, the goal for :meth:`go_to`. Operator
         models use it to take over when the motion is nearly completed (000 section 3.3).
         """
-        return self._motion_end if self._auto_active else None
+        return self._motion_end if self.state[S_AUTO] else None
 
     def _end_motion(self, t: float, name: str, detail: str = "") -> None:
-        self._auto_active = False
+        self.state[S_AUTO] = 0.0
         self.events.append(Event(t, name, detail))
 
     # --------------------------------------------------------------------- step
@@ -377,13 +400,8 @@ class SharedController:
             Joint velocity command (rad/s, rad/s, rad/s, m/s): finite, within the velocity
             limits, within ``qdd_max`` of the previous command, braking before position limits.
         """
-        st = self.status
-        q = state.q
-        qd_meas = state.qd
-        if type(q) is not tuple:
-            q = _floats4(q)
-        if type(qd_meas) is not tuple:
-            qd_meas = _floats4(qd_meas)
+        cs = self.state
+        q, qd_meas = _floats4(state.q), _floats4(state.qd)
         try:
             t = float(state.t)
             state_ok = math.isfinite(t + q[0] + q[1] + q[2] + q[3] + qd_meas[0] + qd_meas[1] + qd_meas[2] + qd_meas[3])
@@ -391,8 +409,8 @@ class SharedController:
             t, state_ok = math.nan, False
         if not self._started:
             self._started = True
-            self._prev = qd_meas if state_ok else _ZERO4
-        st.t = t
+            cs[S_CMD:S_CMD + 4] = qd_meas if state_ok else _ZERO4
+        cs[S_T] = t
 
         # ---- 1. operator input: stale, non-finite and out-of-range handling
         axes, abort, flags, stale = self._read_input(inputs, t)
@@ -408,11 +426,11 @@ class SharedController:
             flags |= _BAD_STATE
             if not (self.events and self.events[-1].name == "bad_state"):
                 self.events.append(Event(t, "bad_state"))
-            cmd = self._ramp_to_zero()
-            st.authority, st.c_a, st.c_o, st.flags, st.qd_cmd = _STOPPED, 0.0, 1.0, flags, cmd
-            return np.array(cmd)
+            self._ramp_to_zero()
+            cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_FLAGS] = int(_STOPPED), 0.0, 1.0, flags
+            return self._publish()
 
-        self._swing_meas = getattr(state, "swing", None)
+        self._swing = _swing_offset(getattr(state, "swing", None))
 
         # ---- kinematics and the sources' context
         p, jac = self.kin.tip_jacobian(q[0], q[1], q[2], q[3])
@@ -420,19 +438,24 @@ class SharedController:
         ctx.t, ctx.q, ctx.qd, ctx.p, ctx.jac, ctx.axes = t, q, qd_meas, p, jac, axes
         ctx.q5, ctx.qd5 = getattr(state, "rotator", _NO_ROTATOR)
         ctx.tip_speed = _tip_speed(jac, qd_meas)
-        st.p_tip = p
+        cs[S_P:S_P + 3] = p
 
-        if stale:
-            target = _ZERO4
-            st.authority, st.c_a, st.c_o, st.speed_o = _STOPPED, 0.0, 1.0, 0.0
+        if stale:  # target 0, reached within the limits
+            cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_SPEED_O] = int(_STOPPED), 0.0, 1.0, 0.0
+            finish_command(self.consts, cs, _ZERO4, q, qd_meas, flags)
         else:
-            target, flags = self._target(ctx, abort, flags)
+            self._command(ctx, abort, flags)
+        return self._publish()
 
-        cmd, flags = self._limit(target, q, qd_meas, flags)
-        st.flags = flags
-        st.qd_cmd = cmd
-        self._prev = cmd
-        return np.array(cmd)
+    def _publish(self) -> np.ndarray:
+        """Copy the state array into :attr:`status`; the command (4,)."""
+        (c1, c2, c3, c4, _, authority, c_a, c_o, sigma, flags, s_p, dev, speed_o, t, px, py,
+         pz) = self.state.tolist()
+        st = self.status
+        st.t, st.authority, st.c_a, st.c_o = t, _AUTHORITIES[int(authority)], c_a, c_o
+        st.sigma_min, st.flags = sigma, int(flags)
+        st.s_p, st.deviation_m, st.speed_o, st.p_tip, st.qd_cmd = s_p, dev, speed_o, (px, py, pz), (c1, c2, c3, c4)
+        return np.array(st.qd_cmd)
 
     def rotator_step(self, q5: float, qd5: float, inputs: OperatorInput | None) -> float:
         """The grapple rotator's command (rad/s) of the step just made (:mod:`motionlib.runtime.rotator`).
@@ -446,7 +469,7 @@ class SharedController:
             return 0.0
         stopped = self.status.authority == _STOPPED
         axis = 0.0 if stopped or inputs is None else getattr(inputs, "rotator", 0.0)
-        auto = self._auto_active and not stopped
+        auto = self.automation_active and not stopped
         return self.rotator.step(q5, qd5, axis, auto, self.status.s_p, self._ctx.tip_speed)
 
     # ----------------------------------------------------------------- pieces
@@ -479,9 +502,9 @@ class SharedController:
             abort = False
         return axes, abort, flags, False
 
-    def _target(self, ctx: StepContext, abort: bool, flags: int) -> tuple[Vec4, int]:
-        """Target joint velocity before limits, for the mode and automation state."""
-        st = self.status
+    def _command(self, ctx: StepContext, abort: bool, flags: int) -> None:
+        """Sum the sources (step 2), then the command law (steps 3-5: :func:`.command.command_law`)."""
+        cs = self.state
         jac = ctx.jac
 
         # operator sources: p_o (Cartesian) and qd_o (joint operation)
@@ -496,7 +519,7 @@ class SharedController:
                 po_y += r[1]
                 po_z += r[2]
             elif qo is None:
-                qo = (r[0], r[1], r[2], r[3])
+                qo = (float(r[0]), float(r[1]), float(r[2]), float(r[3]))
             else:
                 qo = (qo[0] + r[0], qo[1] + r[1], qo[2] + r[2], qo[3] + r[3])
         if qo is not None:  # joint operation: p_o = J qd_o (000 eq. 1)
@@ -504,14 +527,15 @@ class SharedController:
             po_y += jac[4] * qo[0] + jac[5] * qo[1] + jac[6] * qo[2] + jac[7] * qo[3]
             po_z += jac[8] * qo[0] + jac[9] * qo[1] + jac[10] * qo[2] + jac[11] * qo[3]
         speed_o = math.sqrt(po_x * po_x + po_y * po_y + po_z * po_z)
-        st.speed_o = speed_o
+        cs[S_SPEED_O] = speed_o
 
         # automation: abort, sources, arrival
-        if self._auto_active and abort:
+        if cs[S_AUTO] and abort:
             self._end_motion(ctx.t, "abort")
-        auto = self._auto_active
+        auto = bool(cs[S_AUTO])
         pa = _ZERO3
-        za = None
+        za: Vec4 | None = None
+        deviation, dist_end = 0.0, math.inf
         if auto:
             pa_x = pa_y = pa_z = 0.0
             for src in self._automation_sources:
@@ -523,234 +547,54 @@ class SharedController:
                 pa_z += r[2]
                 zr = src.nullspace(ctx)
                 if zr is not None:
-                    za = zr if za is None else (za[0] + zr[0], za[1] + zr[1], za[2] + zr[2], za[3] + zr[3])
-            pa = (pa_x, pa_y, pa_z)
+                    za = _floats4(zr) if za is None else (za[0] + zr[0], za[1] + zr[1], za[2] + zr[2], za[3] + zr[3])
+            pa = (float(pa_x), float(pa_y), float(pa_z))
             motion = self._motion
             if motion is None:  # (an active automation always has its source)
                 raise RuntimeError("automation active without a motion source")
-            st.s_p, st.deviation_m = motion.s_p, motion.deviation_m
+            cs[S_S_P], cs[S_DEV] = motion.s_p, motion.deviation_m
+            deviation, dist_end = motion.deviation_m, motion.dist_end_m
             if motion.arrived(ctx):
                 self._end_motion(ctx.t, "arrival", f"{motion.dist_end_m * 1000:.1f} mm from the end point")
                 auto = False
                 pa, za = _ZERO3, None
         else:
-            st.s_p = st.deviation_m = math.nan
+            cs[S_S_P] = cs[S_DEV] = math.nan
 
-        # mode logic -> merged tip velocity p_s (000 eq. 4), or a direct joint command
-        c_a = 0.0
-        qo_weights = None
-        if auto and self._traded:
-            st.authority = _TRADED
-            c_a = 1.0
-            sx, sy, sz = self._swing_damping()
-            ps = (pa[0] + sx, pa[1] + sy, pa[2] + sz)
-            st.c_o = 1.0
-        elif auto:  # shared
-            st.authority = _SHARED
-            motion = self._motion
-            if motion is None:
-                raise RuntimeError("automation active without a motion source")
-            c_a = self.mixer.update(ctx.dt, speed_o, motion.deviation_m, motion.dist_end_m)
-            if self.mixer.handed_over:
-                self._end_motion(ctx.t, "handover", f"t_o {self.mixer.t_o:.2f} s in a weak zone")
-                c_a = 0.0
-            if speed_o > 0.0:
-                (gx, gy, gz), flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
-            else:
-                gx, gy, gz = 0.0, 0.0, 0.0
-                st.c_o = 1.0
-            sx, sy, sz = self._swing_damping()
-            ps = (c_a * pa[0] + gx + sx, c_a * pa[1] + gy + sy, c_a * pa[2] + gz + sz)
-            qo_weights = qo
+        # the obstacle guard c_o on p_o where the mode uses it: shared control while the operator moves, manual
+        # Cartesian operation
+        po = (float(po_x), float(po_y), float(po_z))
+        if (auto and not self._traded and speed_o > 0.0) or (not auto and not self._joint_operation):
+            po_guarded, c_o = self._guard(ctx.q, po)
         else:
-            st.authority = _MANUAL
-            if self._joint_operation:  # manual joint operation: the operator's joint rates directly
-                st.c_a, st.c_o = 0.0, 1.0
-                qm = qo if qo is not None else _ZERO4
-                sway = self._swing_damping()
-                if sway[0] == 0.0 and sway[1] == 0.0:
-                    return qm, flags
-                prm = self.params  # ... plus the swing damping's tip velocity, resolved (000 eq. 2)
-                qs, _, _ = resolve_rate_fast(ctx.jac, sway, self._weights(ctx.q, None), _ZERO4,
-                                             prm.sigma_threshold, prm.damping_max)
-                return (qm[0] + qs[0], qm[1] + qs[1], qm[2] + qs[2], qm[3] + qs[3]), flags
-            (gx, gy, gz), flags = self._guard(ctx.q, (po_x, po_y, po_z), flags)
-            sx, sy, sz = self._swing_damping()
-            ps = (gx + sx, gy + sy, gz + sz)
-        st.c_a = c_a
+            po_guarded, c_o = po, 1.0
+        event = command_law(
+            self.consts, cs, self.mixer.consts, self.mixer.state, jac, ctx.q, ctx.qd, self._swing[0], self._swing[1],
+            auto, speed_o, qo if qo is not None else _ZERO4, qo is not None, pa, za if za is not None else _ZERO4,
+            za is not None, float(deviation), float(dist_end), po_guarded, c_o, flags,
+        )
+        if event == EV_HANDOVER:
+            self.events.append(Event(ctx.t, "handover", f"t_o {self.mixer.t_o:.2f} s in a weak zone"))
 
-        # resolved rate (000 eq. 2, 001 eq. 7)
-        w = self._weights(ctx.q, qo_weights)
-        if za is not None and c_a > 0.0:
-            z = (c_a * za[0], c_a * za[1], c_a * za[2], c_a * za[3])
-        else:
-            z = self._centering(ctx.q)
-        prm = self.params
-        qd, sigma_min, lam = resolve_rate_fast(jac, ps, w, z, prm.sigma_threshold, prm.damping_max)
-        st.sigma_min = sigma_min
-        if lam > 0.0:
-            flags |= _DAMPED
-        return qd, flags
-
-    def _swing_damping(self) -> Vec3:
-        """The swing damping's tip velocity ``k_s r_h`` (3,) (m/s), bounded (see the module docstring, step 4)."""
-        k = self.swing_gain_per_s
-        r = self._swing_meas
-        if k == 0.0 or r is None:
-            return _ZERO3
-        try:
-            vx, vy = k * float(r[0]), k * float(r[1])
-        except (TypeError, ValueError, IndexError):
-            return _ZERO3
-        n = math.sqrt(vx * vx + vy * vy)
-        if not n <= self._sway_max:  # too fast, or NaN (not measured)
-            if not math.isfinite(n):
-                return _ZERO3
-            c = self._sway_max / n
-            vx, vy = c * vx, c * vy
-        return (vx, vy, 0.0)
-
-    def _guard(self, q: Vec4, po: Vec3, flags: int) -> tuple[Vec3, int]:
+    def _guard(self, q: Vec4, po: Vec3) -> tuple[Vec3, float]:
+        """The guarded operator velocity ``c_o p_o`` (3,) (m/s) and ``c_o`` (1 without a guard)."""
         if self.guard is None:
-            self.status.c_o = 1.0
-            return po, flags
-        out = self.guard.apply(q, po)
-        c_o = self.guard.c_o
-        self.status.c_o = c_o
-        if c_o < 1.0:
-            flags |= _GUARD
-        return out, flags
+            return po, 1.0
+        gx, gy, gz = self.guard.apply(q, po)
+        return (float(gx), float(gy), float(gz)), float(self.guard.c_o)
 
-    def _weights(self, q: Vec4, qo: Vec4 | None) -> Vec4:
-        """Joint-limit weights (the law of resolved_rate.joint_limit_weights), raised for the operator's joints."""
-        a, b = self._w_free_lo, self._w_free_hi
-        if a[0] <= q[0] <= b[0] and a[1] <= q[1] <= b[1] and a[2] <= q[2] <= b[2] and a[3] <= q[3] <= b[3]:
-            w = list(self._w_nom)  # every joint outside its fade zone
-        else:
-            floor = self.params.limit_weight_floor
-            w = []
-            for qi, lo, hi, width, w_nom in zip(q, self._w_lo, self._w_hi, self._w_width, self._w_nom, strict=True):
-                d = qi - lo
-                d2 = hi - qi
-                x = (d if d < d2 else d2) / width
-                if x >= 1.0:
-                    w.append(w_nom)
-                else:
-                    x = 0.0 if x < 0.0 else x
-                    w.append(w_nom * (floor + (1.0 - floor) * x * x * (3.0 - 2.0 * x)))
-        if qo is not None:
-            act = [min(1.0, abs(qo[i]) / self._activity_rate[i]) for i in range(4)]
-            a_max = max(act)
-            if a_max > 0.0:
-                up, down = self.params.operator_weight_raise, self.params.operator_weight_lower
-                for i in range(4):
-                    w[i] *= (1.0 + (up - 1.0) * act[i]) * (1.0 + (down - 1.0) * a_max * (1.0 - act[i]))
-        return (w[0], w[1], w[2], w[3])
-
-    def _centering(self, q: Vec4) -> Vec4:
-        """Null-space reference ``z = c grad H``, ``H = -sum ((q_i - mid_i) / range_i)^2`` (001 eq. 7)."""
-        k = self.params.centering_gain_per_s
-        if k == 0.0:
-            return _ZERO4
-        m, s = self._mid, self._inv_span2
-        return (-2.0 * k * (q[0] - m[0]) * s[0], -2.0 * k * (q[1] - m[1]) * s[1], -2.0 * k * (q[2] - m[2]) * s[2],
-                -2.0 * k * (q[3] - m[3]) * s[3])
-
-    def _limit(self, target: Vec4, q: Vec4, qd_meas: Vec4, flags: int) -> tuple[Vec4, int]:
-        """Velocity, position-limit and acceleration limits (see the module docstring)."""
-        # fast path: nothing binds (within the velocity limits, away from every braking curve, a small change)
-        t0, t1, t2, t3 = target
-        p0, p1, p2, p3 = self._prev
-        c0, c1, c2, c3 = self._dv_cap
-        lo, hi = self._v_lo, self._v_hi
-        nlo, nhi = self._near_lo, self._near_hi
-        lag = self._lag
-        if (
-            -c0 <= t0 - p0 <= c0 and -c1 <= t1 - p1 <= c1 and -c2 <= t2 - p2 <= c2 and -c3 <= t3 - p3 <= c3
-            and lo[0] <= t0 <= hi[0] and lo[1] <= t1 <= hi[1] and lo[2] <= t2 <= hi[2] and lo[3] <= t3 <= hi[3]
-            and nlo[0] < q[0] + lag * qd_meas[0] < nhi[0] and nlo[1] < q[1] + lag * qd_meas[1] < nhi[1]
-            and nlo[2] < q[2] + lag * qd_meas[2] < nhi[2] and nlo[3] < q[3] + lag * qd_meas[3] < nhi[3]
-        ):
-            return (t0, t1, t2, t3), flags  # (NaN fails the comparisons and takes the general path)
-        t = list(target)
-        if not math.isfinite(t[0] + t[1] + t[2] + t[3]):
-            t = [x if math.isfinite(x) else 0.0 for x in t]
-        v_lo, v_hi = self._v_lo, self._v_hi
-        # 1. uniform scaling into the direction-dependent velocity limits
-        k = 1.0
-        for v, lo, hi in zip(t, v_lo, v_hi, strict=True):
-            if v > hi:
-                r = hi / v
-                if r < k:
-                    k = r
-            elif v < lo:
-                r = lo / v
-                if r < k:
-                    k = r
-        if k < 1.0:
-            flags |= _VEL
-            t = [v * k for v in t]
-        # 2. braking curves before the position limits, per joint: |v| <= sqrt(2 a_b d); they only bind
-        #    within v_lim^2 / (2 a_b) of a limit (the predicted position counts: lag x measured velocity)
-        lag = self._lag
-        ub: list[float] = []  # the braking curves' bounds, filled when a joint is near a limit
-        lb: list[float] = []
-        for i, (qi, vi, near_lo, near_hi) in enumerate(zip(q, qd_meas, self._near_lo, self._near_hi, strict=True)):
-            qp = qi + lag * vi
-            if near_lo < qp < near_hi:
-                continue
-            if not ub:
-                ub, lb = list(v_hi), list(v_lo)
-            two_ab = self._two_a_brake[i]
-            d = self._q_hi[i] - qp
-            if d < self._far_hi[i]:
-                ub[i] = math.sqrt(two_ab * d) if d > 0.0 else 0.0
-            d = qp - self._q_lo[i]
-            if d < self._far_lo[i]:
-                lb[i] = -math.sqrt(two_ab * d) if d > 0.0 else 0.0
-            if t[i] > ub[i]:
-                t[i] = ub[i]
-                flags |= _POS
-            elif t[i] < lb[i]:
-                t[i] = lb[i]
-                flags |= _POS
-        # 3. uniform scaling of the change into the acceleration limits
-        prev = self._prev
-        ka = 1.0
-        for v, pv, cap in zip(t, prev, self._dv_cap, strict=True):
-            dv = v - pv
-            if dv > cap:
-                r = cap / dv
-                if r < ka:
-                    ka = r
-            elif dv < -cap:
-                r = -cap / dv
-                if r < ka:
-                    ka = r
-        if ka < 1.0:
-            flags |= _ACC
-            t = [pv + ka * (v - pv) for v, pv in zip(t, prev, strict=True)]
-            # 4. a joint over its braking curve brakes on its own, at up to qdd_max
-            if ub:
-                for i in range(4):
-                    if t[i] > ub[i]:
-                        t[i] = max(ub[i], prev[i] - self._dv_cap[i])
-                    elif t[i] < lb[i]:
-                        t[i] = min(lb[i], prev[i] + self._dv_cap[i])
-        return (t[0], t[1], t[2], t[3]), flags
-
-    def _ramp_to_zero(self) -> Vec4:
+    def _ramp_to_zero(self) -> None:
         """Decelerate the previous command toward 0 within qdd_max (state unknown)."""
-        out = []
-        for v, cap in zip(self._prev, self._dv_cap, strict=True):
-            out.append(0.0 if abs(v) <= cap else v - math.copysign(cap, v))
-        self._prev = (out[0], out[1], out[2], out[3])
-        return self._prev
+        cs, cap = self.state, self.consts
+        for i in range(4):
+            v, dv = float(cs[S_CMD + i]), float(cap[i])  # the constants start with dv_cap
+            cs[S_CMD + i] = 0.0 if abs(v) <= dv else v - math.copysign(dv, v)
 
 
 # ==================================================================== helpers
 def _floats4(v: Any) -> Vec4:
-    if type(v) is tuple and len(v) == 4:
+    """``v`` as a tuple of 4 floats (NaNs when it is not 4 numbers)."""
+    if type(v) is tuple and len(v) == 4 and all(type(x) is float for x in v):
         return v
     try:
         a = np.asarray(v, dtype=np.float64).reshape(-1).tolist()
@@ -759,6 +603,16 @@ def _floats4(v: Any) -> Vec4:
     if len(a) != 4:
         return (math.nan, math.nan, math.nan, math.nan)
     return (a[0], a[1], a[2], a[3])
+
+
+def _swing_offset(r: Any) -> tuple[float, float]:
+    """The measured horizontal grapple offset ``(x, y)`` (m); NaNs when it is not measured."""
+    if r is None:
+        return (math.nan, math.nan)
+    try:
+        return (float(r[0]), float(r[1]))
+    except (TypeError, ValueError, IndexError):
+        return (math.nan, math.nan)
 
 
 def _sanitize_axes(raw: Any) -> tuple[Vec4, int]:

@@ -3,7 +3,9 @@
 :func:`run_closed_loop` runs a :class:`~motionlib.runtime.controller.SharedController`, a
 :class:`~motionlib.runtime.plant.SimulatedCrane` and an operator model at the control rate
 until the tip settles (or a time limit), filling a :class:`~motionlib.runtime.runlog.RunLog`.
-Sensors (:mod:`motionlib.runtime.sensors`) read the plant at the start of every step.
+Sensors (:mod:`motionlib.runtime.sensors`) read the plant at the start of every step. Where the
+run allows it, the steps after the first run compiled (:mod:`motionlib.runtime.fast_loop`), with
+the same results.
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..checks import check_params, param
+from ..errors import InputError
 from .control_types import Authority
 from .controller import SharedController
+from .fast_loop import FastLoop, fast_loop_supported
 from .operators import Observation, Operator
 from .plant import SimulatedCrane
 from .runlog import RunLog
@@ -35,14 +39,20 @@ class LoopOptions:
         The tip has settled when it moves slower than this (m/s) ...
     settle_hold_s : float
         ... for this long (s), with no automated motion running and the operator done.
+    compiled : bool
+        Run the steps after the first compiled where the run allows it (:mod:`motionlib.runtime.fast_loop`;
+        the results are the same); False: every step in Python.
     """
 
     time_limit_s: float = param(60.0, gt=0.0, le=86_400.0)  # a day; beyond, the step count overflows
     settle_speed_m_s: float = param(0.01, gt=0.0)
     settle_hold_s: float = param(0.3, gt=0.0)
+    compiled: bool = True
 
     def __post_init__(self) -> None:
         check_params(self)
+        if not isinstance(self.compiled, bool):
+            raise InputError(f"compiled: expected true or false, got {self.compiled!r}")
 
 
 @dataclass
@@ -127,14 +137,10 @@ def run_closed_loop(
     obs = Observation()
     status = controller.status
     append = log.append
-    calm = 0
-    settled = False
     rotator = controller.rotator is not None and sim.crane.rotator is not None
-    t0 = math.nan
-    steps = 0
-    for steps in range(1, n_max + 1):  # noqa: B007 (steps is reported)
-        if steps == 2:  # the wall clock starts after the first step, which loads the compiled code
-            t0 = time.perf_counter()
+
+    def python_step(calm: int) -> tuple[bool, int]:
+        """One step in Python; returns (settled, steps settled in a row)."""
         if senses:  # the sensor hook (:mod:`motionlib.runtime.sensors`)
             for sense in senses:
                 sense(sim)
@@ -160,12 +166,21 @@ def run_closed_loop(
             and status.authority != Authority.STOPPED
             and operator.done(obs)
         ):
-            calm += 1
-            if calm >= hold_steps:
-                settled = True
-                break
-        else:
-            calm = 0
+            return calm + 1 >= hold_steps, calm + 1
+        return False, 0
+
+    # the first step in Python (it also loads, or once after an install compiles, the compiled parts), then
+    # the compiled loop where the run allows it (:mod:`motionlib.runtime.fast_loop`), else Python
+    settled, calm = python_step(0)
+    steps = 1
+    t0 = time.perf_counter()  # the wall clock starts after the first step
+    if not settled and steps < n_max and opts.compiled and fast_loop_supported(controller, sim, operator, senses):
+        fast = FastLoop(controller, sim, operator, log, n_max, hold_steps, settle_v2)
+        steps, calm, settled = fast.run(steps, calm, python_step)
+    else:
+        while not settled and steps < n_max:
+            settled, calm = python_step(calm)
+            steps += 1
     wall = time.perf_counter() - t0 if steps >= 2 else 0.0
     log.events.extend(controller.events)
     cycle = log.t_end - (calm - 1) * dt if settled else log.t_end

@@ -44,7 +44,10 @@ crane can have moved (lever arms times joint changes), which makes the cache exa
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import astuple, dataclass
+
+import numpy as np
+from numba import njit
 
 from ..checks import check_params, check_scalar, param
 from ..errors import InputError
@@ -53,6 +56,7 @@ from ..model.collision import CollisionChecker
 Vec3 = tuple[float, float, float]
 
 
+@njit(cache=True)
 def smoothstep(x: float) -> float:
     """C1 step ``3x^2 - 2x^3`` on [0, 1], 0 below, 1 above."""
     if x <= 0.0:
@@ -108,8 +112,17 @@ class MixerParams:
         check_params(self)
 
 
+MIXER_STATE: tuple[str, ...] = ("c_a", "t_o", "weak", "handed_over")
+"""Entries of :attr:`Mixer.state` (``handed_over``: 1.0 once latched)."""
+_C_A, _T_O, _WEAK, _HANDED = 0, 1, 2, 3
+
+
 class Mixer:
     """The automation coefficient ``c_a`` of 000 eq. 5 with weak zones and handover.
+
+    The law is compiled (:func:`mixer_update`) on the mixer's arrays (``consts``: the parameters in
+    :class:`MixerParams` order, then ``track_weak``; ``state``: :data:`MIXER_STATE`), shared with
+    the compiled closed loop.
 
     Parameters
     ----------
@@ -132,25 +145,26 @@ class Mixer:
 
     def __init__(self, params: MixerParams | None = None, track_weak: bool = False):
         self.params = params or MixerParams()
-        self._track_weak = bool(track_weak)  # compute ``weak`` also while the operator is hands off
+        # compute ``weak`` also while the operator is hands off (the last entry)
+        self.consts = np.array([*astuple(self.params), float(bool(track_weak))])
+        self.state = np.zeros(len(MIXER_STATE))
         self.reset()
 
     def reset(self) -> None:
         """A new automation command: full automation, no interaction time, no handover."""
-        self.c_a = 1.0
-        self.t_o = 0.0
-        self.weak = 0.0
-        self.handed_over = False
+        self.state[:] = (1.0, 0.0, 0.0, 0.0)
+
+    c_a = property(lambda self: float(self.state[_C_A]), doc="Last coefficient.")
+    t_o = property(lambda self: float(self.state[_T_O]), doc="Interaction time (s).")
+    weak = property(lambda self: float(self.state[_WEAK]), doc="Last weak-zone membership ``w``.")
+    handed_over = property(lambda self: bool(self.state[_HANDED]), doc="Latched handover (until :meth:`reset`).")
 
     def weak_zone(self, deviation_m: float, dist_end_m: float) -> float:
         """Weak-zone membership ``w`` in [0, 1] (see the module docstring)."""
-        prm = self.params
-        w_end = 1.0 - smoothstep((dist_end_m - prm.end_zone_radius_m) / prm.zone_band_m)
-        w_far = smoothstep((deviation_m - prm.far_distance_m) / prm.zone_band_m)
-        return w_end if w_end > w_far else w_far
+        return weak_zone(self.consts, deviation_m, dist_end_m)
 
     def update(self, dt: float, speed_o: float, deviation_m: float, dist_end_m: float) -> float:
-        """Advance ``t_o`` by ``dt`` (s) and return ``c_a`` (000 eq. 5).
+        """Advance ``t_o`` by ``dt`` (s) and return ``c_a`` (000 eq. 5; :func:`mixer_update`).
 
         Parameters
         ----------
@@ -163,31 +177,84 @@ class Mixer:
         dist_end_m : float
             Distance from the path's end point (m); it defines the end weak zone (``s_p`` near ``l``).
         """
-        if self.handed_over:
-            self.c_a = 0.0
-            return 0.0
-        prm = self.params
-        x = deviation_m / prm.far_distance_m
-        c_dist = 1.0 - (1.0 - prm.far_factor) * (x * x * (3.0 - 2.0 * x) if x < 1.0 else 1.0)
-        if speed_o == 0.0 and self.t_o == 0.0:  # hands off, no interaction: c_speed = c_time = 1
-            self.weak = self.weak_zone(deviation_m, dist_end_m) if self._track_weak else 0.0
-            self.c_a = c_dist
-            return c_dist
-        w = self.weak_zone(deviation_m, dist_end_m)
-        self.weak = w
-        v_ref = prm.v_operator_max_m_s * (1.0 - (1.0 - prm.weak_speed_factor) * w)
-        if w > 0.0 and speed_o >= prm.takeover_speed_frac * v_ref:
-            self.t_o += w * dt
-        else:
-            self.t_o = max(0.0, self.t_o - prm.t_o_decay * dt)
-        if self.t_o >= prm.takeover_time_s:
-            self.handed_over = True
-            self.c_a = 0.0
-            return 0.0
-        c_speed = 1.0 - smoothstep(speed_o / v_ref)
-        c_time = 1.0 - smoothstep(self.t_o / prm.takeover_time_s)
-        self.c_a = c_speed * c_dist * c_time
-        return self.c_a
+        return mixer_update(self.consts, self.state, dt, speed_o, deviation_m, dist_end_m)
+
+
+@njit(cache=True)
+def weak_zone(consts, deviation_m: float, dist_end_m: float) -> float:
+    """Weak-zone membership ``w`` in [0, 1] for the mixer parameters ``consts`` (:class:`Mixer`)."""
+    end_radius, far, band = consts[2], consts[3], consts[5]
+    w_end = 1.0 - smoothstep((dist_end_m - end_radius) / band)
+    w_far = smoothstep((deviation_m - far) / band)
+    return w_end if w_end > w_far else w_far
+
+
+@njit(cache=True)
+def mixer_update(consts, state, dt: float, speed_o: float, deviation_m: float, dist_end_m: float) -> float:
+    """Advance ``t_o`` by ``dt`` (s) and return ``c_a`` (000 eq. 5, module docstring); updates ``state``.
+
+    Parameters
+    ----------
+    consts : ndarray, shape (11,)
+        :class:`MixerParams` in field order, then ``track_weak`` (0 or 1).
+    state : ndarray, shape (4,)
+        :data:`MIXER_STATE`, updated in place.
+    dt : float
+        Control period (s).
+    speed_o : float
+        Operator speed ``|p_o|`` (m/s).
+    deviation_m, dist_end_m : float
+        Distances (m) from the path and from its end point.
+    """
+    if state[_HANDED] != 0.0:
+        state[_C_A] = 0.0
+        return 0.0
+    v_max, weak_factor, far, far_factor = consts[0], consts[1], consts[3], consts[4]
+    speed_frac, takeover_s, decay = consts[6], consts[7], consts[8]
+    x = deviation_m / far
+    c_dist = 1.0 - (1.0 - far_factor) * (x * x * (3.0 - 2.0 * x) if x < 1.0 else 1.0)
+    if speed_o == 0.0 and state[_T_O] == 0.0:  # hands off, no interaction: c_speed = c_time = 1
+        state[_WEAK] = weak_zone(consts, deviation_m, dist_end_m) if consts[10] != 0.0 else 0.0
+        state[_C_A] = c_dist
+        return c_dist
+    w = weak_zone(consts, deviation_m, dist_end_m)
+    state[_WEAK] = w
+    v_ref = v_max * (1.0 - (1.0 - weak_factor) * w)
+    if w > 0.0 and speed_o >= speed_frac * v_ref:
+        state[_T_O] += w * dt
+    else:
+        state[_T_O] = max(0.0, state[_T_O] - decay * dt)
+    if state[_T_O] >= takeover_s:
+        state[_HANDED] = 1.0
+        state[_C_A] = 0.0
+        return 0.0
+    c_speed = 1.0 - smoothstep(speed_o / v_ref)
+    c_time = 1.0 - smoothstep(state[_T_O] / takeover_s)
+    c_a = c_speed * c_dist * c_time
+    state[_C_A] = c_a
+    return c_a
+
+
+GUARD_CACHE: tuple[str, ...] = ("valid", "q1", "q2", "q3", "q4", "clearance", "margin", "lever1", "lever2",
+                                "lever3", "lever4", "c_o")
+"""Entries of :attr:`ObstacleGuard.cache`: whether a distance is cached, the configuration and clearance (m)
+it was computed at, the margin (m), the lever arms bounding any crane point's motion (m/rad, m/m), and
+the last ``c_o``."""
+_G_VALID, _G_Q, _G_CLEARANCE, _G_MARGIN, _G_LEVERS, _G_C_O = 0, 1, 5, 6, 7, 11
+
+
+@njit(cache=True)
+def guard_clear(cache, q) -> bool:
+    """The cached distance proves a clearance of at least the margin at ``q`` (4,) (module docstring).
+
+    ``clearance_cached - D(q_cached, q) >= margin`` with ``D`` the lever arms times the joint changes.
+    """
+    if cache[_G_VALID] == 0.0:  # no cached distance: nothing is known about the movement since
+        return False
+    bound = 0.0
+    for i in range(4):
+        bound += cache[_G_LEVERS + i] * abs(q[i] - cache[_G_Q + i])
+    return cache[_G_CLEARANCE] - bound >= cache[_G_MARGIN]
 
 
 class ObstacleGuard:
@@ -221,50 +288,42 @@ class ObstacleGuard:
         ell = math.hypot(m.jib_length + q4_max, m.telescope_offset)
         hang = 0.5 * m.log_length + m.grapple_radius + m.log_diameter  # farthest hanging point across the heading
         # lever arms (m per rad, m per m) bounding the motion of any crane point, carried log included
-        self._levers = (m.boom_pivot_offset + m.boom_length + ell + hang + checker.margin, m.boom_length + ell,
-                        ell, 1.0)
-        self.c_o = 1.0
+        levers = (m.boom_pivot_offset + m.boom_length + ell + hang + checker.margin, m.boom_length + ell, ell, 1.0)
         self.fcl_calls = 0
-        self._q_cache: tuple[float, ...] | None = None
-        self._clearance = math.inf
-        self._normal: Vec3 = (0.0, 0.0, 0.0)
+        #: The cached distance (:data:`GUARD_CACHE`), which the compiled closed loop reads too.
+        self.cache = np.zeros(len(GUARD_CACHE))
+        self.cache[_G_MARGIN] = self.margin
+        self.cache[_G_LEVERS:_G_LEVERS + 4] = levers
+        self.reset()
+
+    c_o = property(lambda self: float(self.cache[_G_C_O]), doc="Last factor (1 = no scaling).")
 
     def reset(self) -> None:
         """Drop the cached distance."""
-        self._q_cache = None
-        self.c_o = 1.0
-
-    def _movement_bound(self, q: tuple[float, ...]) -> float:
-        qc, lv = self._q_cache, self._levers
-        if qc is None:  # no cached distance: nothing is known about the movement since
-            return math.inf
-        return (lv[0] * abs(q[0] - qc[0]) + lv[1] * abs(q[1] - qc[1]) + lv[2] * abs(q[2] - qc[2])
-                + lv[3] * abs(q[3] - qc[3]))
+        self.cache[_G_VALID] = 0.0
+        self.cache[_G_C_O] = 1.0
 
     def apply(self, q: tuple[float, ...], pd_o: Vec3) -> Vec3:
         """The guarded operator velocity ``p_o'`` (3,) (m/s) at configuration ``q`` (4,); sets :attr:`c_o`."""
         vx, vy, vz = pd_o
-        if vx == 0.0 and vy == 0.0 and vz == 0.0:
-            self.c_o = 1.0
-            return pd_o
-        if self._q_cache is not None and self._clearance - self._movement_bound(q) >= self.margin:
-            self.c_o = 1.0
+        if (vx == 0.0 and vy == 0.0 and vz == 0.0) or guard_clear(self.cache, q):
+            self.cache[_G_C_O] = 1.0
             return pd_o
         res = self.checker.distance(q, self.loaded)
         self.fcl_calls += 1
-        self._q_cache = tuple(q)
-        self._clearance = res.distance
+        cache = self.cache
+        cache[_G_Q:_G_Q + 4] = q
+        cache[_G_VALID], cache[_G_CLEARANCE] = 1.0, res.distance
         a, b = res.points[0], res.points[1]
         nx, ny, nz = float(b[0] - a[0]), float(b[1] - a[1]), float(b[2] - a[2])
         norm = math.sqrt(nx * nx + ny * ny + nz * nz)
         if res.distance < 0.0:  # penetrating: the nearest points point out of the obstacle
             nx, ny, nz = -nx, -ny, -nz
-        self._normal = (nx / norm, ny / norm, nz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
+        nx, ny, nz = (nx / norm, ny / norm, nz / norm) if norm > 1e-12 else (0.0, 0.0, 0.0)
         c_o = smoothstep(res.distance / self.margin)
-        self.c_o = c_o
+        cache[_G_C_O] = c_o
         if c_o >= 1.0:
             return pd_o
-        nx, ny, nz = self._normal
         toward = vx * nx + vy * ny + vz * nz
         if toward <= 0.0:
             return pd_o

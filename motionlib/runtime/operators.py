@@ -134,7 +134,7 @@ import csv
 import itertools
 import math
 import random
-from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol
@@ -144,15 +144,38 @@ import numpy as np
 from ..checks import check_int, check_params, check_points, check_vector, param, short
 from ..errors import InputError, ModelFileError
 from ..fileio import path_exists
-from ..model.fast_kinematics import TipKinematics
+from ..model.fast_kinematics import geometry
 from ..model.kinematics import Crane
 from ..schema import read_text
 from .control_types import Mode, OperatorInput
+from .operator_model import (
+    BY_DISTANCE,
+    BY_TIME_TO_ARRIVAL,
+    DONE,
+    K_T0,
+    K_TARGET,
+    OPERATOR_STATE,
+    STICK,
+    X_ABORT_AT,
+    X_DECAY,
+    X_DT_CACHED,
+    X_NEXT_UPDATE,
+    X_NORMAL,
+    X_PHASE,
+    X_SEEN_COUNT,
+    X_SEEN_HEAD,
+    X_T_LAST,
+    X_TAKEOVER_KIND,
+    X_TAKEOVER_T,
+    operator_input,
+    stick_retarget,
+    stick_state,
+)
 from .sources import CartesianJoystick, JointJoystick, RateSource
 
 Vec3 = tuple[float, float, float]
 _ZERO4 = (0.0, 0.0, 0.0, 0.0)
-_ZERO4_LIST = [0.0, 0.0, 0.0, 0.0]
+_ZERO3 = (0.0, 0.0, 0.0)
 
 
 SCRIPT_COLUMNS: tuple[str, ...] = ("t", "left_x", "left_y", "right_x", "right_y", "abort", "dropout")
@@ -201,6 +224,37 @@ class Operator(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class FastPlan:
+    """How the compiled closed loop (:mod:`motionlib.runtime.fast_loop`) may step an operator from now on.
+
+    An operator that has a ``fast_plan() -> FastPlan | None`` method can be stepped in compiled code
+    (None: not now); the plan holds until Python runs a step again.
+
+    Attributes
+    ----------
+    model : SimulatedOperator or None
+        The model whose compiled step gives the stick (:func:`~motionlib.runtime.operator_model.operator_input`);
+        None: the stick rests at 0, fresh, no abort.
+    python_at : float
+        From this time (s) on, Python runs the steps (e.g. a task's timer).
+    done : bool or None
+        What ``done(obs)`` answers meanwhile; None: the model's phase is ``done``.
+    resume : callable or None
+        Called as ``resume(obs, inp) -> OperatorInput`` when the model's phase changes, within that
+        step, with the model's input ``inp`` (same time, axes in [-1, 1]); its answer is the step's
+        input. None: a phase change needs nothing.
+    python_when_manual : bool
+        Python runs the next step once no automated motion is in control.
+    """
+
+    model: SimulatedOperator | None = None
+    python_at: float = math.inf
+    done: bool | None = None
+    resume: Callable[[Observation, OperatorInput], OperatorInput] | None = None
+    python_when_manual: bool = False
+
+
 class PassiveOperator:
     """Hands off: the stick at rest, always fresh; done from the start."""
 
@@ -211,6 +265,9 @@ class PassiveOperator:
 
     def done(self, obs: Observation) -> bool:
         return True
+
+    def fast_plan(self) -> FastPlan:
+        return FastPlan(None, done=True)
 
 
 #: Largest stick script read (bytes): 16 MiB is a day of 200 Hz samples.
@@ -391,7 +448,8 @@ class MinimumJerkStick:
     ``c4 = -15 D + 8 v0 T + 1.5 a0 T^2``, ``c5 = 6 D - 3 v0 T - 0.5 a0 T^2`` (``D = s1 - s0``):
     the path of least integrated squared jerk with these end conditions (from rest it is
     ``s0 + D (10 tau^3 - 15 tau^4 + 6 tau^5)``). Position, velocity and acceleration are
-    continuous at every re-plan.
+    continuous at every re-plan. Compiled: :func:`~motionlib.runtime.operator_model.stick_state`
+    and :func:`~motionlib.runtime.operator_model.stick_retarget` on :attr:`array`.
 
     Parameters
     ----------
@@ -401,47 +459,37 @@ class MinimumJerkStick:
 
     def __init__(self, move_s: float):
         self.move_s = float(move_s)
-        self._t0 = 0.0
-        self._c = [[0.0] * 6 for _ in range(4)]
-        self._target = _ZERO4
+        #: The stick's array (:data:`motionlib.runtime.operator_model.STICK`).
+        self.array = np.zeros(len(STICK))
 
     def state(self, t: float) -> tuple[list[float], list[float], list[float]]:
         """Positions, velocities (1/s) and accelerations (1/s^2) of the 4 axes at time ``t`` (s)."""
-        T = self.move_s
-        tau = (t - self._t0) / T
-        pos, vel, acc = [], [], []
-        for c, end in zip(self._c, self._target, strict=True):
-            if tau >= 1.0:  # at rest at the target
-                pos.append(end)
-                vel.append(0.0)
-                acc.append(0.0)
-                continue
-            x = tau if tau > 0.0 else 0.0
-            pos.append(c[0] + x * (c[1] + x * (c[2] + x * (c[3] + x * (c[4] + x * c[5])))))
-            vel.append((c[1] + x * (2 * c[2] + x * (3 * c[3] + x * (4 * c[4] + x * 5 * c[5])))) / T)
-            acc.append((2 * c[2] + x * (6 * c[3] + x * (12 * c[4] + x * 20 * c[5]))) / (T * T))
-        return pos, vel, acc
+        pos, vel, acc = stick_state(self.array, self.move_s, float(t))
+        return pos.tolist(), vel.tolist(), acc.tolist()
 
     def retarget(self, t: float, target: tuple[float, float, float, float]) -> None:
         """Start a movement toward ``target`` (4,) at time ``t`` (s), from the axes' current state."""
-        if target == self._target:
-            return
-        pos, vel, acc = self.state(t)
-        T = self.move_s
-        for i in range(4):
-            d, vt, at2 = target[i] - pos[i], vel[i] * T, acc[i] * T * T
-            self._c[i] = [pos[i], vt, 0.5 * at2, 10.0 * d - 6.0 * vt - 1.5 * at2, -15.0 * d + 8.0 * vt + 1.5 * at2,
-                          6.0 * d - 3.0 * vt - 0.5 * at2]
-        self._t0 = t
-        self._target = target
+        stick_retarget(self.array, self.move_s, float(t), _floats(target, 4))
 
     def at_rest(self, t: float) -> bool:
         """The movement has ended and every axis is at 0."""
-        return self._target == _ZERO4 and t >= self._t0 + self.move_s
+        a = self.array
+        return not a[K_TARGET:K_TARGET + 4].any() and t >= a[K_T0] + self.move_s
+
+
+#: Rows of a new operator's ring buffer of observations (grown when a reaction time holds more).
+_SEEN_ROWS = 256
+_NORMALS_BLOCK = 1024  # standard normals drawn at a time for the hand noise
+_PHASES = ("wait", "act", "done")
+_TAKEOVER_KINDS = {BY_DISTANCE: "distance", BY_TIME_TO_ARRIVAL: "time-to-arrival"}
 
 
 class SimulatedOperator:
     """A goal-directed operator model (see the module docstring).
+
+    Its step is compiled (:func:`motionlib.runtime.operator_model.operator_input`) on the arrays
+    :attr:`consts`, :attr:`state`, :attr:`seen`, :attr:`via`, :attr:`subsets` and :attr:`normals` and
+    its stick's (:mod:`motionlib.runtime.operator_model`), which the compiled closed loop shares.
 
     Parameters
     ----------
@@ -451,7 +499,8 @@ class SimulatedOperator:
     mode : Mode or str
         The controller's mode (joint/Cartesian operation; manual/traded/shared).
     joystick : CartesianJoystick or JointJoystick
-        The controller's joystick source: the operator inverts its mapping.
+        The controller's joystick source: the operator inverts its mapping (its gains when the
+        operator is made or reset).
     crane : Crane
         For the Jacobian in joint operation.
     seed : int
@@ -475,7 +524,6 @@ class SimulatedOperator:
         if not isinstance(params, OperatorParams):
             raise InputError(f"params: expected OperatorParams, got {type(params).__name__}")
         self.goal = check_vector(goal_p, 3, "goal_p")
-        self._goal_t = tuple(self.goal.tolist())
         self.via = np.zeros((0, 3)) if via is None or len(via) == 0 else check_points(via, "via")
         self.params = params
         self.mode = Mode.parse(mode)
@@ -486,15 +534,9 @@ class SimulatedOperator:
         self.joystick = joystick
         self.crane = crane
         self.name = name
-        self._speed = np.minimum(-crane.qd_min, crane.qd_max)
-        span = crane.q_max - crane.q_min
-        self._near_lo = crane.q_min + 0.03 * span
-        self._near_hi = crane.q_max - 0.03 * span
-        self._subset_idx = np.array(list(itertools.combinations(range(4), params.max_joints)))  # (m, k)
-        self._kin = TipKinematics(crane)
+        self.subsets = np.array(list(itertools.combinations(range(4), params.max_joints)), dtype=np.int64)
+        self.g = geometry(crane)
         self._seed = int(seed)
-        # the joint levers as on the machine (full deflection: the joint's speed), for the joint habit
-        self._levers = JointJoystick(self._speed.tolist(), name="habit")
         self.reset()
 
     @classmethod
@@ -517,167 +559,85 @@ class SimulatedOperator:
 
     def reset(self) -> None:
         """Start over (same seed: same target estimate and noise)."""
-        prm = self.params
-        self._rng = random.Random(self._seed)
-        err = [self._rng.gauss(0.0, prm.precision_m) for _ in range(3)]
+        prm, mode, crane = self.params, self.mode, self.crane
+        rng = random.Random(self._seed)
+        err = [rng.gauss(0.0, prm.precision_m) for _ in range(3)]
         self.goal_estimate = self.goal + np.array(err)
-        self.waits_for_arrival = self.mode.authority == "traded" and self._rng.random() < prm.traded_wait_fraction
-        self._via_left = [tuple(v) for v in self.via.tolist()]
-        self.phase = "wait"
-        self._seen: deque[tuple[float, Vec3, Vec3]] = deque()
-        self._next_update = -math.inf
-        self._choice = _ZERO4
-        self._stick = MinimumJerkStick(prm.stick_move_s)
-        self._noise = [0.0, 0.0, 0.0, 0.0]
-        self._t_last: float | None = None
-        self._dt_cached = math.nan
-        self._factors = (0.0, 1.0, 0.0)
-        self._aborted = False
-        self.abort_pressed_at: float | None = None
+        self.waits_for_arrival = mode.authority == "traded" and rng.random() < prm.traded_wait_fraction
         self.takeover_tau_s = takeover_tau_s(prm, self._seed)
-        self.takeover: tuple[float, str] | None = None
+        speed = np.minimum(-crane.qd_min, crane.qd_max)  # the joint levers at full deflection
+        span = crane.q_max - crane.q_min
+        js = list(self.joystick.gains) + [0.0] * (4 - len(self.joystick.gains))
+        scalars = [prm.reaction_time_s, prm.gain_per_s, prm.max_speed_m_s, prm.precision_m, prm.noise,
+                   prm.noise_tau_s, prm.stick_move_s, prm.update_period_s, prm.takeover_distance_m,
+                   prm.via_radius_m, prm.settle_speed_m_s, prm.joint_habit, self.takeover_tau_s,
+                   self.waits_for_arrival, mode.joint_operation, mode.authority == "traded",
+                   mode.authority == "manual", getattr(self.joystick, "base_frame", False)]
+        self.consts = np.concatenate([np.array(scalars, dtype=np.float64), js, speed, self.goal, self.goal_estimate,
+                                      crane.q_min + 0.03 * span, crane.q_max - 0.03 * span])
+        self.state = np.zeros(len(OPERATOR_STATE))
+        self.state[[X_T_LAST, X_NEXT_UPDATE, X_DT_CACHED, X_TAKEOVER_T, X_ABORT_AT]] = (
+            math.nan, -math.inf, math.nan, math.nan, math.nan)
+        self.state[X_DECAY] = 1.0
+        self.stick = MinimumJerkStick(prm.stick_move_s)
+        self.seen = np.zeros((_SEEN_ROWS, 7))
+        self._noise_rng = np.random.default_rng(self._seed)
+        self.normals = np.zeros(0)
+
+    # ---------------------------------------------------------------- read-out
+    @property
+    def phase(self) -> str:
+        """``wait`` (hands off), ``act`` or ``done``."""
+        return _PHASES[int(self.state[X_PHASE])]
+
+    @property
+    def takeover(self) -> tuple[float, str] | None:
+        """When and why the hands took over a running automated motion (``distance`` or ``time-to-arrival``)."""
+        kind = int(self.state[X_TAKEOVER_KIND])
+        return (float(self.state[X_TAKEOVER_T]), _TAKEOVER_KINDS[kind]) if kind else None
+
+    @property
+    def abort_pressed_at(self) -> float | None:
+        """Time (s) the operator pressed abort (traded modes), or None."""
+        t = float(self.state[X_ABORT_AT])
+        return None if math.isnan(t) else t
 
     # ---------------------------------------------------------------- model
-    def _perceived(self, obs: Observation) -> tuple[Vec3, Vec3]:
-        """The tip position and velocity as seen ``reaction_time_s`` ago."""
-        seen = self._seen
-        seen.append((obs.t, obs.p, obs.v))
-        horizon = obs.t - self.params.reaction_time_s
-        while len(seen) > 1 and seen[1][0] <= horizon + 1e-12:
-            seen.popleft()
-        return seen[0][1], seen[0][2]
-
-    def _choose(self, obs: Observation, p_seen: Vec3, v_seen: Vec3) -> tuple[float, float, float, float]:
-        """Stick axes for the velocity toward the goal estimate, or rest when close enough."""
-        prm = self.params
-        aim = self.goal_estimate
-        while self._via_left:  # the next via point, unless passed or farther than the target
-            via = self._via_left[0]
-            d_via = math.dist(via, p_seen)
-            if d_via <= prm.via_radius_m or math.dist(self._goal_t, p_seen) < d_via:
-                self._via_left.pop(0)
-                continue
-            aim = np.asarray(via)
-            break
-        err = aim - np.asarray(p_seen)
-        dist = float(np.linalg.norm(err))
-        if dist <= prm.precision_m and not self._via_left:
-            if math.hypot(*v_seen) <= prm.settle_speed_m_s:
-                self.phase = "done"
-                return _ZERO4
-        v = err * prm.gain_per_s
-        speed = dist * prm.gain_per_s
-        if speed > prm.max_speed_m_s:
-            v *= prm.max_speed_m_s / speed
-        if isinstance(self.joystick, CartesianJoystick):
-            cart = self.joystick.axes_for(obs.p, tuple(v.tolist()))
-            h = prm.joint_habit
-            if h <= 0.0:
-                return cart
-            # years of joint operation: the hands also push the joint levers they would use (negative transfer)
-            lever = self._levers.axes_for(self._joint_rates(obs, v))
-            return (
-                (1.0 - h) * cart[0] + h * lever[0],
-                (1.0 - h) * cart[1] + h * lever[1],
-                (1.0 - h) * cart[2] + h * lever[2],
-                (1.0 - h) * cart[3] + h * lever[3],
-            )
-        if not isinstance(self.joystick, JointJoystick):
-            raise InputError(f"joint operation needs a JointJoystick, got {type(self.joystick).__name__}")
-        return self.joystick.axes_for(self._joint_rates(obs, v))
-
-    def _joint_rates(self, obs: Observation, v: np.ndarray) -> tuple[float, float, float, float]:
-        """Joint rates (4,) of the best subset of ``max_joints`` joints for tip velocity ``v`` (3,), m/s.
-
-        Least squares for every subset, leaving out subsets that push a joint further into a stop
-        (within 3 % of its range); scaled down alike so that no joint exceeds its speed (full lever
-        deflection).
-        """
-        q = np.asarray(obs.q)
-        jac = np.reshape(self._kin.tip_jacobian(*obs.q)[1], (3, 4))
-        # least squares for every subset of max_joints joints at once: normal equations (m, k, k)
-        sub = np.transpose(jac[:, self._subset_idx], (1, 0, 2))  # (m, 3, k)
-        gram = np.einsum("mik,mil->mkl", sub, sub) + 1e-12 * np.eye(sub.shape[2])
-        sol = np.linalg.solve(gram, np.einsum("mik,i->mk", sub, v)[..., None])[..., 0]  # (m, k)
-        residual = np.linalg.norm(np.einsum("mik,mk->mi", sub, sol) - v, axis=1)
-        low = q <= self._near_lo  # joints at a stop: an operator does not push them further into it
-        high = q >= self._near_hi
-        pushes = ((sol < 0.0) & low[self._subset_idx]) | ((sol > 0.0) & high[self._subset_idx])
-        residual[pushes.any(axis=1)] = np.inf
-        best = np.zeros(4)
-        m = int(np.argmin(residual))  # the first of equal residuals (subsets in lexicographic order)
-        if np.isfinite(residual[m]):
-            best[self._subset_idx[m]] = sol[m]
-        peak = float(np.max(np.abs(best) / self._speed))
-        if peak > 1.0:  # a human cannot push past full deflection: scale all joints alike
-            best /= peak
-        b = best.tolist()
-        return (b[0], b[1], b[2], b[3])
+    def make_room(self) -> None:
+        """Room for one more step in the arrays: a longer ring buffer, more normals (before :func:`operator_input`)."""
+        st = self.state
+        count = int(st[X_SEEN_COUNT])
+        if count >= self.seen.shape[0]:  # a reaction time holds more steps: twice the rows, oldest first
+            head = int(st[X_SEEN_HEAD])
+            self.seen = np.concatenate([np.roll(self.seen, -head, axis=0), np.zeros_like(self.seen)])
+            st[X_SEEN_HEAD] = 0.0
+        if st[X_NORMAL] + 4 > self.normals.size:
+            rest = self.normals[int(st[X_NORMAL]):]
+            self.normals = np.concatenate([rest, self._noise_rng.standard_normal(_NORMALS_BLOCK)])
+            st[X_NORMAL] = 0.0
 
     def input(self, obs: Observation) -> OperatorInput:
-        prm = self.params
-        t = obs.t
-        dt = 0.0 if self._t_last is None else max(0.0, t - self._t_last)
-        self._t_last = t
-        p_seen, v_seen = self._perceived(obs)
-        abort = False
-        if self.phase == "wait":
-            auto = obs.automation_active
-            end = obs.motion_end
-            near = math.dist(self._goal_t, p_seen) <= prm.takeover_distance_m or (
-                auto and end is not None and math.dist(end, p_seen) <= prm.takeover_distance_m
-            )
-            soon = auto and end is not None and _arrives_within(end, p_seen, v_seen, self.takeover_tau_s)
-            # in manual modes act once the reaction time has passed; a waiting traded operator lets the motion end
-            if (not auto and (self.mode.authority != "manual" or t >= prm.reaction_time_s)) or (
-                auto and (near or soon) and not self.waits_for_arrival
-            ):
-                if auto:
-                    self.takeover = (t, "distance" if near else "time-to-arrival")
-                self.phase = "act"
-                if auto and self.mode.authority == "traded":
-                    abort = True
-                    self.abort_pressed_at = t
-        if self.phase == "act" and t >= self._next_update:
-            self._choice = self._choose(obs, p_seen, v_seen)
-            self._next_update = t + prm.update_period_s
-        hands_on = self.phase == "act"
-        target = self._choice if hands_on else _ZERO4
-        if dt != self._dt_cached:  # noise factors for this time step (constant in a control loop)
-            decay = math.exp(-dt / prm.noise_tau_s) if dt > 0.0 else 1.0
-            self._dt_cached = dt
-            self._factors = (0.0, decay, prm.noise * math.sqrt(max(0.0, 1.0 - decay * decay)))
-        _, decay, spread = self._factors
-        stick, noise = self._stick, self._noise
-        stick.retarget(t, target)
-        if not hands_on and noise == _ZERO4_LIST and stick.at_rest(t):
-            return OperatorInput(t, _ZERO4, abort)  # hands off and the stick at rest
-        pos = stick.state(t)[0]
-        gauss = self._rng.gauss
-        noisy = hands_on and prm.noise > 0.0
-        axes = []
-        for i in range(4):
-            noise[i] = noise[i] * decay + spread * gauss(0.0, 1.0) if noisy else 0.0
-            value = pos[i] + noise[i]
-            axes.append(1.0 if value > 1.0 else (-1.0 if value < -1.0 else value))
-        return OperatorInput(t, (axes[0], axes[1], axes[2], axes[3]), abort)
+        self.make_room()
+        end = obs.motion_end
+        axes, abort = operator_input(
+            self.consts, self.state, self.stick.array, self.seen, self.via, self.subsets, self.normals, self.g,
+            float(obs.t), _floats(obs.p, 3), _floats(obs.v, 3), _floats(obs.q, 4), bool(obs.automation_active),
+            end is not None, _floats(end, 3) if end is not None else _ZERO3,
+        )
+        return OperatorInput(obs.t, axes, abort)
 
     def done(self, obs: Observation) -> bool:
-        return self.phase == "done"
+        return self.state[X_PHASE] == DONE
+
+    def fast_plan(self) -> FastPlan:
+        return FastPlan(self)
 
 
-def _arrives_within(end: Vec3, p: Vec3, v: Vec3, tau_s: float) -> bool:
-    """Lee's (1976) tau: the tip at ``p`` (m) moving at ``v`` (m/s) reaches ``end`` (m) within ``tau_s`` (s).
-
-    ``tau = d / (-dd/dt)`` with ``d = |end - p|`` and ``-dd/dt = v . (end - p) / d`` (the closing
-    speed); False when not closing or ``tau_s`` is 0 (the habit off).
-    """
-    if tau_s <= 0.0:
-        return False
-    ex, ey, ez = end[0] - p[0], end[1] - p[1], end[2] - p[2]
-    d2 = ex * ex + ey * ey + ez * ez
-    closing_d = v[0] * ex + v[1] * ey + v[2] * ez  # closing speed times d
-    return closing_d > 0.0 and d2 <= tau_s * closing_d  # d / closing <= tau
+def _floats(v: Any, n: int) -> tuple[float, ...]:
+    """``v`` as a tuple of ``n`` floats (the types the compiled functions are built for)."""
+    if type(v) is tuple and len(v) == n and all(type(x) is float for x in v):
+        return v
+    return tuple(float(x) for x in np.asarray(v, dtype=np.float64).reshape(n).tolist())
 
 
 def operator_kind(spec: str) -> str:

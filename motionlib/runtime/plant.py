@@ -66,10 +66,13 @@ sensor above the grapple reads (001 section 2.5).
 
 Speed
 -----
-The substeps of a control period run in one numba-compiled function, :func:`integrate_period`
-(the actuators of :func:`~motionlib.runtime.hydraulics.actuators_substep`, the end stops, the
-tip of :func:`~motionlib.model.fast_kinematics.tip_point`, the grapple and the contact);
-:meth:`SimulatedCrane.advance` applies steps 1-3 on Python floats and calls it once.
+A control period runs in one numba-compiled function, :func:`plant_period`: steps 1-3 on the
+command, then the substeps of :func:`integrate_period` (the actuators of
+:func:`~motionlib.runtime.hydraulics.actuators_substep`, the end stops, the tip of
+:func:`~motionlib.model.fast_kinematics.tip_point`, the grapple and the contact).
+:meth:`SimulatedCrane.advance` and the compiled closed loop (:mod:`motionlib.runtime.fast_loop`)
+call it on the plant's arrays (:attr:`SimulatedCrane.arrays`). The flow noise is drawn from a
+seeded numpy generator into a buffer of standard normals, consumed in order.
 
 Parameters and their sources: :class:`SimParams`.
 """
@@ -77,10 +80,9 @@ Parameters and their sources: :class:`SimParams`.
 from __future__ import annotations
 
 import math
-import random
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -205,6 +207,21 @@ class SimParams:
 
 
 _NO_PLANES = np.zeros((0, 4))
+_NOISE_BLOCK = 1024  # standard normals drawn at a time for the flow noise
+
+#: Rows of the valve array (5, n) of :func:`plant_period`: per actuated joint.
+DEADBAND, GAIN_POS, GAIN_NEG, V_MIN, V_MAX = range(5)
+#: Entries of the parameter array of :func:`plant_period`.
+PLANT_PARAMS: tuple[str, ...] = (
+    "dt_sub", "tau", "second_order", "w2", "zw2", "pump_flow", "length", "gravity", "swing_damping", "mass",
+    "react", "contact_k", "contact_c", "friction", "load", "noise",
+)
+(P_DT_SUB, P_TAU, P_SECOND, P_W2, P_ZW2, P_PUMP, P_LENGTH, P_GRAVITY, P_DAMPING, P_MASS, P_REACT, P_CONTACT_K,
+ P_CONTACT_C, P_FRICTION, P_LOAD, P_NOISE) = range(16)
+#: Entries of the clock array of :func:`plant_period`: time (s), end-stop hits, the peaks so far, the
+#: pump's last sharing factor, the last substep (s) and the next unused entry of the noise buffer.
+PLANT_CLOCK: tuple[str, ...] = ("t", "hits", "peak_pump_ratio", "peak_contact_n", "share", "h_last", "noise_index")
+C_T, C_HITS, C_PEAK_PUMP, C_PEAK_CONTACT, C_SHARE, C_H_LAST, C_NOISE = range(7)
 
 #: Rows of the grapple's state array (6, 3) of :func:`integrate_period` (m, N; base frame).
 GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV, ROD_FORCE, CONTACT_FORCE = range(6)
@@ -355,6 +372,91 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     return hits, pump_ratio, share, contact_peak
 
 
+@njit(cache=True)
+def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, normals, u, joints, a_relief,
+                 displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes) -> None:
+    """Hold the command ``cmd`` (4,) for ``duration`` (s): steps 1-3 (module docstring), then :func:`integrate_period`.
+
+    A non-finite command component counts as 0 (the valve closes). Updates the arrays in place;
+    ``clock[t]`` advances by ``duration``.
+
+    Parameters
+    ----------
+    cmd : sequence of 4 float
+        Joint velocity command (rad/s, m/s).
+    rotator_cmd : float
+        The grapple rotator's command (rad/s), used when the arrays have a fifth joint.
+    duration : float
+        Held for this long (s), in ``round(duration / dt_sub)`` equal substeps.
+    valve : ndarray, shape (5, n)
+        Rows ``DEADBAND`` (rad/s, m/s), ``GAIN_POS``, ``GAIN_NEG``, ``V_MIN``, ``V_MAX`` (rad/s, m/s).
+    prm : ndarray, shape (16,)
+        :data:`PLANT_PARAMS`.
+    clock : ndarray, shape (7,)
+        :data:`PLANT_CLOCK`, updated.
+    normals : ndarray
+        Standard normals for the flow noise, used from ``clock[noise_index]`` on (4 per period at most).
+    u : ndarray, shape (n,)
+        Scratch for the valve commands.
+    joints, a_relief, displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes
+        As :func:`integrate_period`.
+    """
+    n = u.shape[0]
+    n_sub = max(1, int(round(duration / prm[P_DT_SUB])))
+    h = duration / n_sub
+    load, noise = prm[P_LOAD], prm[P_NOISE]
+    k = int(clock[C_NOISE])
+    for i in range(4):
+        c = cmd[i]
+        if not math.isfinite(c) or -valve[DEADBAND, i] < c < valve[DEADBAND, i]:
+            c = 0.0
+        else:
+            c *= valve[GAIN_POS, i] if c > 0.0 else valve[GAIN_NEG, i]
+            if load != 0.0 and (i == 1 or i == 2):  # boom and jib: raising (c > 0) against gravity
+                c *= 1.0 - load if c > 0.0 else 1.0 + load
+            if noise > 0.0:
+                c *= 1.0 + noise * normals[k]
+                k += 1
+        u[i] = min(max(c, valve[V_MIN, i]), valve[V_MAX, i])
+    clock[C_NOISE] = k
+    if n == 5:  # the rotator: dead band and saturation only (module docstring)
+        c = rotator_cmd
+        if not math.isfinite(c) or -valve[DEADBAND, 4] < c < valve[DEADBAND, 4]:
+            c = 0.0
+        u[4] = min(max(c, valve[V_MIN, 4]), valve[V_MAX, 4])
+    hits, pump_ratio, share, contact_peak = integrate_period(
+        u, n_sub, h, joints, 1.0 - math.exp(-h / prm[P_TAU]), prm[P_SECOND] != 0.0, prm[P_W2], prm[P_ZW2], a_relief,
+        displacement, prm[P_PUMP], q_min, q_max, at_stop, g, pend, prm[P_LENGTH], prm[P_GRAVITY], prm[P_DAMPING],
+        prm[P_MASS], prm[P_REACT] != 0.0, inv_inertia, planes, prm[P_CONTACT_K], prm[P_CONTACT_C], prm[P_FRICTION],
+    )
+    clock[C_T] += duration
+    clock[C_HITS] += hits
+    clock[C_PEAK_PUMP] = max(clock[C_PEAK_PUMP], pump_ratio)
+    clock[C_PEAK_CONTACT] = max(clock[C_PEAK_CONTACT], contact_peak)
+    clock[C_SHARE] = share
+    clock[C_H_LAST] = h
+
+
+class PlantArrays(NamedTuple):
+    """The arrays of one simulated crane that :func:`plant_period` takes after the command (see there)."""
+
+    valve: np.ndarray
+    prm: np.ndarray
+    clock: np.ndarray
+    normals: np.ndarray
+    u: np.ndarray
+    joints: np.ndarray
+    a_relief: np.ndarray
+    displacement: np.ndarray
+    q_min: np.ndarray
+    q_max: np.ndarray
+    at_stop: np.ndarray
+    g: tuple
+    pend: np.ndarray
+    inv_inertia: np.ndarray
+    planes: np.ndarray
+
+
 class SimulatedCrane:
     """A hydraulic crane with a swinging grapple (see the module docstring).
 
@@ -395,6 +497,9 @@ class SimulatedCrane:
         The grapple rotator's position (rad) and velocity (rad/s); 0 without a rotator.
     joints : HydraulicJoints
         The actuators' state (valve states ``x``, delivered speeds ``y``, sharing factor ``share``).
+    arrays : PlantArrays
+        The arrays :func:`plant_period` integrates (the state lives there; the attributes above are
+        copies, refreshed by :meth:`advance` and :meth:`sync`).
     """
 
     def __init__(
@@ -415,7 +520,7 @@ class SimulatedCrane:
         if not crane.within_limits(q0, 1e-9):
             raise InputError(f"q0: {q0.tolist()} is outside the joint limits")
         qd0 = np.zeros(4) if qd0 is None else check_vector(qd0, 4, "qd0")
-        self.t = float(check_scalar(t0, "t0"))
+        t0 = float(check_scalar(t0, "t0"))
         self.q: tuple[float, ...] = tuple(np.clip(q0, crane.q_min, crane.q_max).tolist())
         self.qd: tuple[float, ...] = tuple(qd0.tolist())
         rot = crane.rotator
@@ -428,19 +533,13 @@ class SimulatedCrane:
         self._g = geometry(crane)
         full = crane.full_limits  # (n,) with the rotator last on a crane that has one
         self._q_min, self._q_max = full["q_min"].copy(), full["q_max"].copy()
-        self._v_min = tuple(full["qd_min"].tolist())
-        self._v_max = tuple(full["qd_max"].tolist())
         speed = np.minimum(-full["qd_min"], full["qd_max"])
-        self._deadband = tuple((prm.deadband_frac * speed).tolist())
-        self._rng = random.Random(int(prm.seed))
+        ones = [1.0] * (self._n - 4)  # the rotator has no valve gains
+        valve = np.array([prm.deadband_frac * speed, [*prm.valve_gain_pos, *ones], [*prm.valve_gain_neg, *ones],
+                          full["qd_min"], full["qd_max"]], dtype=np.float64)
+        self._rng = np.random.default_rng(int(prm.seed))
         self.payload_frac = float(prm.payload_frac)
-        self._gain_pos = tuple(float(g) for g in prm.valve_gain_pos)
-        self._gain_neg = tuple(float(g) for g in prm.valve_gain_neg)
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
-        self.hard_stop_hits = 0
-        self.peak_pump_ratio = 0.0
-        self.peak_contact_force_n = 0.0
-        self._at_stop = np.zeros(self._n, dtype=bool)
         second = prm.model == "second_order"
         model = crane.model
         mass = prm.load_mass_kg if prm.load_mass_kg is not None else model.load_mass
@@ -451,10 +550,10 @@ class SimulatedCrane:
         if prm.contact is not None and self._mass <= 0.0:
             raise InputError(f"crane {crane.name!r}: contact needs the grapple's mass (SimParams.load_mass_kg "
                              "or the crane file's dynamics.load_mass)")
-        self._react = second and self._mass > 0.0
+        react = second and self._mass > 0.0
         self._surfaces = ContactSurfaces(prm.contact, obstacles) if prm.contact is not None else None
         inv = [1.0 / float(i) for i in inertia] if inertia is not None else [0.0] * 4
-        self._inv_inertia = np.array(inv + [0.0] * (self._n - 4))
+        inv_inertia = np.array(inv + [0.0] * (self._n - 4))
         disp = crane.model.displacement
         if disp is not None and rot is not None:
             if crane.model.rotator_displacement is None:
@@ -468,17 +567,16 @@ class SimulatedCrane:
         h = prm.dt_sub_s
         v = [sum(jac[4 * r + c] * self.qd[c] for c in range(4)) for r in range(3)]
         self.grapple = (p[0], p[1], p[2] - self.length_m)
-        self._pend = np.zeros((6, 3))
-        self._pend[GRAPPLE] = self.grapple
-        self._pend[GRAPPLE_PREV] = [self.grapple[r] - v[r] * h for r in range(3)]
-        self._pend[TIP] = p
-        self._pend[TIP_PREV] = [p[r] - v[r] * h for r in range(3)]
-        if self._react:
-            self._pend[ROD_FORCE, 2] = -self._mass * prm.gravity_m_s2  # the rod's pull on the tip (N)
-        self._h_last = h
+        pend = np.zeros((6, 3))
+        pend[GRAPPLE] = self.grapple
+        pend[GRAPPLE_PREV] = [self.grapple[r] - v[r] * h for r in range(3)]
+        pend[TIP] = p
+        pend[TIP_PREV] = [p[r] - v[r] * h for r in range(3)]
+        if react:
+            pend[ROD_FORCE, 2] = -self._mass * prm.gravity_m_s2  # the rod's pull on the tip (N)
         f = np.zeros(self._n)
-        fx, fy, fz = self._pend[ROD_FORCE].tolist()
-        joint_load(jac, fx, fy, fz, self._inv_inertia, f)
+        fx, fy, fz = pend[ROD_FORCE].tolist()
+        joint_load(jac, fx, fy, fz, inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
@@ -487,9 +585,38 @@ class SimulatedCrane:
             displacement=list(disp) if shared and disp is not None else None,
             pump_flow=float(pump) if shared and pump is not None else None,
         )
-        self._u = np.zeros(self._n)
+        j, contact = self.joints, prm.contact
+        values = {
+            "dt_sub": prm.dt_sub_s, "tau": j.tau, "second_order": j.second_order, "w2": j.w2, "zw2": j.zw2,
+            "pump_flow": j.pump_flow, "length": self.length_m, "gravity": prm.gravity_m_s2,
+            "swing_damping": prm.swing_damping_per_s, "mass": self._mass, "react": react,
+            "contact_k": contact.stiffness_n_m if contact else 0.0,
+            "contact_c": contact.damping_n_s_m if contact else 0.0,
+            "friction": contact.friction if contact else 0.0, "load": 0.0, "noise": prm.noise_frac,
+        }
+        clock = np.zeros(len(PLANT_CLOCK))
+        clock[[C_T, C_SHARE, C_H_LAST]] = t0, 1.0, h
+        self.arrays = PlantArrays(
+            valve, np.array([float(values[k]) for k in PLANT_PARAMS]), clock, np.zeros(0), np.zeros(self._n),
+            j.state, j.a_relief, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool), self._g, pend,
+            inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
+        )
+        self.set_payload(self.payload_frac)
 
     # --------------------------------------------------------------- read-out
+    t = property(lambda self: float(self.arrays.clock[C_T]), doc="Simulated time (s).")
+    hard_stop_hits = property(lambda self: int(self.arrays.clock[C_HITS]),
+                              doc="Number of times a joint ran into an end stop.")
+    peak_pump_ratio = property(lambda self: float(self.arrays.clock[C_PEAK_PUMP]),
+                               doc="Largest flow delivered to the joints over the pump's flow so far.")
+    peak_contact_force_n = property(lambda self: float(self.arrays.clock[C_PEAK_CONTACT]),
+                                    doc="Largest contact force (N) on the grapple so far.")
+
+    @property
+    def fixed_planes(self) -> bool:
+        """The contact surfaces do not depend on where the grapple is (none, or the ground only)."""
+        return self._surfaces is None or not self._surfaces.has_obstacles
+
     def state(self) -> CraneState:
         """The measured state (time, joint positions and velocities, the grapple's offset from the tip, the rotator)."""
         g, p = self.grapple, self.tip
@@ -507,7 +634,7 @@ class SimulatedCrane:
     @property
     def contact_force(self) -> tuple[float, float, float]:
         """Force (3,) (N, base) of the ground and obstacles on the grapple in the last substep (0 without contact)."""
-        fx, fy, fz = self._pend[CONTACT_FORCE].tolist()
+        fx, fy, fz = self.arrays.pend[CONTACT_FORCE].tolist()
         return (fx, fy, fz)
 
     def set_grapple(self, offset: Sequence[float], velocity: Sequence[float] = (0.0, 0.0, 0.0)) -> None:
@@ -522,21 +649,24 @@ class SimulatedCrane:
             raise InputError("offset: expected a non-zero vector")
         r = r * (self.length_m / n)
         v = v - (v @ r) / (r @ r) * r
-        tip, tip_prev = self._pend[TIP], self._pend[TIP_PREV]
+        pend = self.arrays.pend
+        tip, tip_prev = pend[TIP], pend[TIP_PREV]
         g = tip + r
-        self._pend[GRAPPLE] = g
-        self._pend[GRAPPLE_PREV] = g - (v * self.params.dt_sub_s + (tip - tip_prev))
+        pend[GRAPPLE] = g
+        pend[GRAPPLE_PREV] = g - (v * self.params.dt_sub_s + (tip - tip_prev))
         self.grapple = tuple(g.tolist())
 
     def set_payload(self, fraction: float) -> None:
         """The grapple now carries ``fraction`` of the rated load (0: empty)."""
         self.payload_frac = float(check_scalar(fraction, "fraction", ge=0.0, le=1.5))
+        self.arrays.prm[P_LOAD] = self.params.load_speed_loss * self.payload_frac
 
     @property
     def tip_velocity(self) -> tuple[float, float, float]:
         """Tip velocity (m/s) over the last substep (backward difference)."""
-        (tx, ty, tz), (px, py, pz) = self._pend[TIP].tolist(), self._pend[TIP_PREV].tolist()
-        h = self._h_last
+        pend = self.arrays.pend
+        (tx, ty, tz), (px, py, pz) = pend[TIP].tolist(), pend[TIP_PREV].tolist()
+        h = float(self.arrays.clock[C_H_LAST])
         return ((tx - px) / h, (ty - py) / h, (tz - pz) / h)
 
     # --------------------------------------------------------------- advance
@@ -546,47 +676,30 @@ class SimulatedCrane:
         ``rotator_cmd`` (rad/s): the grapple rotator's velocity command (ignored without a
         rotator). A non-finite command component is treated as 0 (the valve closes).
         """
-        prm = self.params
-        n_sub = max(1, int(round(duration_s / prm.dt_sub_s)))
-        h = duration_s / n_sub
-        db, vmin, vmax = self._deadband, self._v_min, self._v_max
-        noise = prm.noise_frac
-        load = prm.load_speed_loss * self.payload_frac
-        u = self._u
-        for i in range(4):
-            c = float(qd_cmd[i])
-            if not math.isfinite(c) or -db[i] < c < db[i]:
-                c = 0.0
-            else:
-                c *= self._gain_pos[i] if c > 0.0 else self._gain_neg[i]
-                if load and i in (1, 2):  # boom and jib: raising (c > 0) against gravity
-                    c *= 1.0 - load if c > 0.0 else 1.0 + load
-                if noise > 0.0:
-                    c *= 1.0 + noise * self._rng.gauss(0.0, 1.0)
-            u[i] = min(max(c, vmin[i]), vmax[i])
-        if self._n == 5:  # the rotator: dead band and saturation only (module docstring)
-            c = float(rotator_cmd)
-            if not math.isfinite(c) or -db[4] < c < db[4]:
-                c = 0.0
-            u[4] = min(max(c, vmin[4]), vmax[4])
-        j, contact = self.joints, prm.contact
-        hits, pump_ratio, j.share, contact_peak = integrate_period(
-            u, n_sub, h, j.state, 1.0 - math.exp(-h / j.tau), j.second_order, j.w2, j.zw2, j.a_relief,
-            j.displacement, j.pump_flow, self._q_min, self._q_max, self._at_stop, self._g, self._pend,
-            self.length_m, prm.gravity_m_s2, prm.swing_damping_per_s, self._mass, self._react, self._inv_inertia,
-            self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
-            contact.stiffness_n_m if contact else 0.0, contact.damping_n_s_m if contact else 0.0,
-            contact.friction if contact else 0.0,
-        )
-        self.hard_stop_hits += hits
-        self.peak_pump_ratio = max(self.peak_pump_ratio, pump_ratio)
-        self.peak_contact_force_n = max(self.peak_contact_force_n, contact_peak)
-        q, v = j.state[Q].tolist(), j.state[V].tolist()
+        a = self.arrays
+        if a.prm[P_NOISE] > 0.0 and a.clock[C_NOISE] + 4 > a.normals.size:
+            self.refill_noise()
+        if self._surfaces is not None and self._surfaces.has_obstacles:
+            a = a._replace(planes=self._surfaces.planes(self.grapple))
+        cmd = (float(qd_cmd[0]), float(qd_cmd[1]), float(qd_cmd[2]), float(qd_cmd[3]))
+        plant_period(cmd, float(rotator_cmd), float(duration_s), *a)
+        self.sync()
+
+    def refill_noise(self) -> None:
+        """Draw the next block of standard normals for the flow noise (the unused ones are kept, in order)."""
+        a = self.arrays
+        rest = a.normals[int(a.clock[C_NOISE]):]
+        self.arrays = a._replace(normals=np.concatenate([rest, self._rng.standard_normal(_NOISE_BLOCK)]))
+        self.arrays.clock[C_NOISE] = 0.0
+
+    def sync(self) -> None:
+        """Refresh the attributes from :attr:`arrays` (after :func:`plant_period` ran on them)."""
+        a = self.arrays
+        self.joints.share = float(a.clock[C_SHARE])
+        q, v = a.joints[Q].tolist(), a.joints[V].tolist()
         self.q, self.qd = (q[0], q[1], q[2], q[3]), (v[0], v[1], v[2], v[3])
         if self._n == 5:
             self.rotator_q, self.rotator_qd = q[4], v[4]
-        tip, grapple = self._pend[TIP].tolist(), self._pend[GRAPPLE].tolist()
+        tip, grapple = a.pend[TIP].tolist(), a.pend[GRAPPLE].tolist()
         self.tip = (tip[0], tip[1], tip[2])
         self.grapple = (grapple[0], grapple[1], grapple[2])
-        self._h_last = h
-        self.t += duration_s

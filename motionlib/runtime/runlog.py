@@ -1,11 +1,11 @@
 """The 200 Hz run log of a controller run, and its HDF5 file (docs/runtime.md, "Run-log format").
 
-:class:`RunLog` collects one row per control step cheaply (a tuple appended to a list)
-and turns them into arrays at the end; the tip position and velocity are computed then,
-from the logged joint positions and velocities through the forward kinematics (as in 000
-section 3.4), vectorised: ``p = fk(q)``, ``v = J(q) qd`` as the central difference of ``fk``
-along ``qd``. :func:`write_runlog` writes the file atomically (temporary name, fsync,
-rename); :func:`read_runlog` reads it back.
+:class:`RunLog` collects one row per control step cheaply (a tuple appended to a list, or
+a block of rows from the compiled closed loop) and turns them into arrays at the end; the tip
+position and velocity are computed then, from the logged joint positions and velocities
+through the forward kinematics (as in 000 section 3.4), vectorised: ``p = fk(q)``,
+``v = J(q) qd`` as the central difference of ``fk`` along ``qd``. :func:`write_runlog` writes
+the file atomically (temporary name, fsync, rename); :func:`read_runlog` reads it back.
 """
 
 from __future__ import annotations
@@ -51,11 +51,26 @@ class RunLog:
     attrs: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        self._blocks: list[np.ndarray] = []  # rows (k, len(COLUMNS)) before those in _rows
         self._rows: list[tuple] = []
+        self._n_blocks = 0
         self._rotator: list[tuple[float, float, float]] = []
 
     def __len__(self) -> int:
-        return len(self._rows)
+        return self._n_blocks + len(self._rows)
+
+    def extend(self, rows: np.ndarray) -> None:
+        """Append a block of rows (k, len(COLUMNS)), in :data:`COLUMNS` order (copied)."""
+        rows = np.asarray(rows, dtype=np.float64)
+        if rows.ndim != 2 or rows.shape[1] != len(COLUMNS):
+            raise ValueError(f"rows: expected shape (k, {len(COLUMNS)}), got {rows.shape}")
+        if not len(rows):
+            return
+        if self._rows:
+            self._blocks.append(np.array(self._rows, dtype=np.float64))
+            self._rows = []
+        self._blocks.append(rows.copy())
+        self._n_blocks = sum(len(b) for b in self._blocks)
 
     def append(self, t: float, q: Any, qd: Any, status: Any, swing_rad: float) -> None:
         """One step: time (s), measured ``q`` (4,), ``qd`` (4,), the controller status, swing angle (rad).
@@ -78,7 +93,9 @@ class RunLog:
     @property
     def t_end(self) -> float:
         """Time of the last row (s); 0 when empty."""
-        return float(self._rows[-1][0]) if self._rows else 0.0
+        if self._rows:
+            return float(self._rows[-1][0])
+        return float(self._blocks[-1][-1, 0]) if self._n_blocks else 0.0
 
     def arrays(self, crane: Crane | None = None) -> dict[str, np.ndarray]:
         """The log as arrays.
@@ -98,7 +115,8 @@ class RunLog:
             with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s; with the grapple rotator
             (:meth:`append_rotator` every step) ``rotator`` (N, 3): q5 (rad), its velocity and command (rad/s).
         """
-        data = np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))
+        data = np.concatenate(
+            self._blocks + [np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))])
         out: dict[str, np.ndarray] = {
             "t": data[:, 0].copy(),
             "q": data[:, 1:5].copy(),
@@ -114,7 +132,7 @@ class RunLog:
         }
         if crane is not None:
             out["tip_p"], out["tip_v"] = tip_motion(crane, out["q"], out["qd"])
-        if self._rotator and len(self._rotator) == len(self._rows):
+        if self._rotator and len(self._rotator) == len(self):
             out["rotator"] = np.array(self._rotator, dtype=np.float64)
         return out
 

@@ -27,8 +27,9 @@ The operator's two analog joysticks give four axes in [-1, 1], ordered
   slewing axis, ``right_y`` up / down; ``right_x`` is unused (grapple rotation on a real
   machine). In the ``base`` frame ``left_x``, ``left_y``, ``right_y`` are the base x, y, z.
 
-The hot path uses plain Python floats and tuples: each call is a few hundred nanoseconds,
-where numpy's per-call overhead on 3- and 4-vectors would dominate a 50 microsecond step.
+The stick mappings are compiled functions (:func:`cartesian_rate`, :func:`cartesian_axes`,
+:func:`joint_rate`, :func:`joint_axes`) on plain floats, shared by the joystick classes, the
+operator models and the compiled closed loop (:mod:`motionlib.runtime.fast_loop`).
 """
 
 from __future__ import annotations
@@ -36,6 +37,8 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from typing import Any
+
+from numba import njit
 
 from ..checks import check_scalar, check_vector
 from ..errors import InputError
@@ -169,29 +172,17 @@ class CartesianJoystick(RateSource):
         if frame not in ("cylindrical", "base"):
             raise InputError(f"frame: expected 'cylindrical' or 'base', got {frame!r}")
         self.frame = frame
+        self.base_frame = frame == "base"
 
     def rate(self, ctx: StepContext) -> Vec3:
-        lx, ly, _, ry = ctx.axes
-        g0, g1, g2 = self.gains
-        if self.frame == "base":
-            return (g0 * lx, g1 * ly, g2 * ry)
-        ux, uy = _heading(ctx.p)
-        side, out = g0 * lx, g1 * ly
-        return (out * ux - side * uy, out * uy + side * ux, g2 * ry)
+        return cartesian_rate(self.gains, self.base_frame, ctx.axes, ctx.p)
 
     def axes_for(self, p: Vec3, v: Vec3) -> Vec4:
         """Stick axes (unclipped) that command tip velocity ``v`` (m/s, base frame) with the tip at ``p``.
 
         The inverse of :meth:`rate`; an axis with zero gain gets 0.
         """
-        g0, g1, g2 = self.gains
-        if self.frame == "base":
-            comps = (v[0], v[1], v[2])
-        else:
-            ux, uy = _heading(p)
-            comps = (-v[0] * uy + v[1] * ux, v[0] * ux + v[1] * uy, v[2])
-        lx, ly, ry = (c / g if g != 0.0 else 0.0 for c, g in zip(comps, (g0, g1, g2), strict=True))
-        return (lx, ly, 0.0, ry)
+        return cartesian_axes(self.gains, self.base_frame, p, v)
 
 
 #: Joint driven by each stick axis in the joint mapping: axis index -> joint index.
@@ -215,15 +206,11 @@ class JointJoystick(RateSource):
         super().__init__(name, gains, enabled)
 
     def rate(self, ctx: StepContext) -> Vec4:
-        lx, ly, rx, ry = ctx.axes
-        g = self.gains
-        return (g[0] * lx, g[1] * ry, g[2] * ly, g[3] * rx)
+        return joint_rate(self.gains, ctx.axes)
 
     def axes_for(self, qd: Vec4) -> Vec4:
         """Stick axes (unclipped) that command joint velocities ``qd`` (4,)."""
-        g = self.gains
-        j = [qd[i] / g[i] if g[i] != 0.0 else 0.0 for i in range(4)]
-        return (j[0], j[2], j[3], j[1])
+        return joint_axes(self.gains, qd)
 
 
 class PathTrackerSource(RateSource):
@@ -242,12 +229,15 @@ class PathTrackerSource(RateSource):
     def __init__(self, tracker: Any, gains: Any = (1.0, 1.0, 1.0), name: str = "tracker", enabled: bool = True):
         super().__init__(name, gains, enabled)
         self.tracker = tracker
-        self.s_p, self.deviation_m, self.dist_end_m = math.nan, 0.0, math.inf
+
+    # the tracker's progress once it has searched (the compiled closed loop updates the tracker directly)
+    s_p = property(lambda self: self.tracker.s_p if self.tracker.search_index >= 0 else math.nan)
+    deviation_m = property(lambda self: self.tracker.deviation_m)
+    dist_end_m = property(lambda self: self.tracker.dist_end_m)
 
     def rate(self, ctx: StepContext) -> Vec3:
         tr = self.tracker
         tr.update(ctx.p, ctx.q, ctx.tip_speed)
-        self.s_p, self.deviation_m, self.dist_end_m = tr.s_p, tr.deviation_m, tr.dist_end_m
         g = self.gains
         if g == (1.0, 1.0, 1.0):
             return tr.pd_a
@@ -313,9 +303,53 @@ class PositionSource(RateSource):
         return self.dist_end_m <= self.arrive_tol and ctx.tip_speed <= self.arrive_speed
 
 
-def _heading(p: Vec3) -> tuple[float, float]:
-    """Unit radial direction (x, y) of the tip from the slewing axis; +x on the axis."""
+@njit(cache=True)
+def heading(p) -> tuple[float, float]:
+    """Unit radial direction (x, y) of the tip at ``p`` (3,) (m) from the slewing axis; +x on the axis."""
     r = math.hypot(p[0], p[1])
     if r > 1e-9:
         return p[0] / r, p[1] / r
     return 1.0, 0.0
+
+
+@njit(cache=True)
+def cartesian_rate(gains, base_frame: bool, axes, p) -> Vec3:
+    """Tip velocity (3,) (m/s, base frame) of the Cartesian mapping (module docstring) for stick ``axes`` (4,).
+
+    ``gains`` (3,) (m/s at full deflection); ``p`` (3,) the tip (m), for the cylindrical frame.
+    """
+    lx, ly, ry = axes[0], axes[1], axes[3]
+    g0, g1, g2 = gains[0], gains[1], gains[2]
+    if base_frame:
+        return (g0 * lx, g1 * ly, g2 * ry)
+    ux, uy = heading(p)
+    side, out = g0 * lx, g1 * ly
+    return (out * ux - side * uy, out * uy + side * ux, g2 * ry)
+
+
+@njit(cache=True)
+def _ratio(c: float, g: float) -> float:
+    return c / g if g != 0.0 else 0.0
+
+
+@njit(cache=True)
+def cartesian_axes(gains, base_frame: bool, p, v) -> Vec4:
+    """Stick axes (4,) (unclipped) that command tip velocity ``v`` (3,) (m/s) through :func:`cartesian_rate`."""
+    if base_frame:
+        c0, c1, c2 = v[0], v[1], v[2]
+    else:
+        ux, uy = heading(p)
+        c0, c1, c2 = -v[0] * uy + v[1] * ux, v[0] * ux + v[1] * uy, v[2]
+    return (_ratio(c0, gains[0]), _ratio(c1, gains[1]), 0.0, _ratio(c2, gains[2]))
+
+
+@njit(cache=True)
+def joint_rate(gains, axes) -> Vec4:
+    """Joint rates (4,) of the joint mapping (:data:`JOINT_OF_AXIS`) for stick ``axes`` (4,); ``gains`` (4,)."""
+    return (gains[0] * axes[0], gains[1] * axes[3], gains[2] * axes[1], gains[3] * axes[2])
+
+
+@njit(cache=True)
+def joint_axes(gains, qd) -> Vec4:
+    """Stick axes (4,) (unclipped) that command joint rates ``qd`` (4,) through :func:`joint_rate`."""
+    return (_ratio(qd[0], gains[0]), _ratio(qd[2], gains[2]), _ratio(qd[3], gains[3]), _ratio(qd[1], gains[1]))

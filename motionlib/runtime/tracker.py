@@ -38,7 +38,9 @@ direction follows the library's redundancy resolution instead of drifting.
 Dense tables: the path is sampled every ``sample_step_m`` (default 5 mm) once, when the
 tracker is built; the nearest point is found by walking along these samples from the last
 ``s_p`` and projecting onto the two adjacent chords; every lookup is linear interpolation.
-One update costs a few microseconds in plain Python.
+The update is compiled (numba, :func:`tracker_update`) on the tracker's arrays (``table``,
+``consts``, ``state``), so that the compiled closed loop (:mod:`motionlib.runtime.fast_loop`) and
+:meth:`PathTracker.update` run the same code.
 """
 
 from __future__ import annotations
@@ -48,6 +50,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from ..checks import check_params, check_scalar, param
 from ..errors import InputError
@@ -59,6 +62,17 @@ Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
 _FD_EPS = 1e-6  # directional finite-difference step (s) for tip speeds of the trajectory samples
+
+TABLE_COLUMNS: tuple[str, ...] = ("px", "py", "pz", "v2", "q1", "q2", "q3", "q4",
+                                  "dq1_ds", "dq2_ds", "dq3_ds", "dq4_ds")
+"""Columns of :attr:`PathTracker.table`: path point (m), planned speed squared (m^2/s^2), planned
+configuration and its derivative over arc length, at every sample."""
+_V2, _Q, _DQ = 3, 4, 8
+TRACKER_STATE: tuple[str, ...] = ("index", "s_p", "deviation", "dist_end", "lookahead", "speed",
+                                  "pd_x", "pd_y", "pd_z", "z1", "z2", "z3", "z4")
+"""Entries of :attr:`PathTracker.state` (``index``: the last nearest sample, -1 before the first search)."""
+_I, _S_P, _DEV, _DIST_END, _LOOKAHEAD, _SPEED, _PD, _Z = 0, 1, 2, 3, 4, 5, 6, 9
+# PathTracker.consts: s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau, h, 1/h, window (samples), l
 
 
 @dataclass(frozen=True)
@@ -124,6 +138,10 @@ class PathTracker:
 
     Attributes (after :meth:`update`)
     ---------------------------------
+    table : ndarray, shape (n, 12)
+        The dense path tables (:data:`TABLE_COLUMNS`).
+    state : ndarray, shape (13,)
+        :data:`TRACKER_STATE`.
     s_p : float
         Arc length of the nearest path point (m).
     deviation_m : float
@@ -153,87 +171,68 @@ class PathTracker:
         self.s_grid = tables["s"]
         self.h = float(self.s_grid[1] - self.s_grid[0])
         self.n = int(self.s_grid.size)
-        # plain lists: indexing a list is ~10x faster than indexing a numpy array element
-        p = tables["p"]
-        self._px, self._py, self._pz = p[:, 0].tolist(), p[:, 1].tolist(), p[:, 2].tolist()
-        self._v2 = (tables["v"] ** 2).tolist()  # s_dot^2 is piecewise linear in s on a time-optimal profile
-        self._q = [tables["q"][:, j].tolist() for j in range(4)]
-        self._dq = [tables["dq_ds"][:, j].tolist() for j in range(4)]
-        self.end: Vec3 = (self._px[-1], self._py[-1], self._pz[-1])
-        self._max_walk = max(1, int(math.ceil(self.params.window_m / self.h)))
-        self._inv_h = 1.0 / self.h
+        # one row per sample: the columns of TABLE_COLUMNS (v^2: s_dot^2 is piecewise linear in s on a
+        # time-optimal profile)
+        self.table = np.ascontiguousarray(np.column_stack(
+            [tables["p"], tables["v"] ** 2, tables["q"], tables["dq_ds"]]), dtype=np.float64)
+        p_end = self.table[-1, :3].tolist()
+        self.end: Vec3 = (p_end[0], p_end[1], p_end[2])
         prm = self.params
-        self._consts = (prm.s_min_m, prm.s_max_m, prm.lookahead_gain, prm.v_floor_m_s, prm.end_gain_per_s,
-                        prm.converge_speed_m_s, prm.config_gain_per_s, prm.lag_preview_s)
+        self.consts = np.array([prm.s_min_m, prm.s_max_m, prm.lookahead_gain, prm.v_floor_m_s, prm.end_gain_per_s,
+                                prm.converge_speed_m_s, prm.config_gain_per_s, prm.lag_preview_s, self.h,
+                                1.0 / self.h, max(1, int(math.ceil(prm.window_m / self.h))), self.length])
+        #: The tracker's state (TRACKER_STATE: search index, s_p, distances, look-ahead, speed, p_a, z).
+        self.state = np.zeros(len(TRACKER_STATE))
         self.reset()
 
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
         """Forget the previous nearest point (the next update searches the whole path)."""
-        self._i = -1
-        self.s_p = 0.0
-        self.deviation_m = 0.0
-        self.dist_end_m = math.inf
-        self.lookahead_m = self.params.s_min_m
-        self.speed_m_s = 0.0
-        self.pd_a: Vec3 = (0.0, 0.0, 0.0)
-        self.z: Vec4 = (0.0, 0.0, 0.0, 0.0)
+        st = self.state
+        st[:] = 0.0
+        st[_I] = -1.0
+        st[_DIST_END] = math.inf
+        st[_LOOKAHEAD] = self.params.s_min_m
+
+    s_p = property(lambda self: float(self.state[_S_P]), doc="Arc length (m) of the nearest path point.")
+    deviation_m = property(lambda self: float(self.state[_DEV]), doc="``|p - q(s_p)|`` (m).")
+    dist_end_m = property(lambda self: float(self.state[_DIST_END]), doc="``|p - q(l)|`` (m).")
+    lookahead_m = property(lambda self: float(self.state[_LOOKAHEAD]), doc="``Delta s`` used (m).")
+    speed_m_s = property(lambda self: float(self.state[_SPEED]), doc="Tracking speed ``v`` (m/s).")
+
+    @property
+    def pd_a(self) -> Vec3:
+        """Automation tip velocity ``p_a`` (3,) (m/s, base frame)."""
+        x, y, z = self.state[_PD:_PD + 3].tolist()
+        return (x, y, z)
+
+    @property
+    def z(self) -> Vec4:
+        """Null-space joint-velocity reference (4,) (rad/s, m/s)."""
+        a, b, c, d = self.state[_Z:_Z + 4].tolist()
+        return (a, b, c, d)
+
+    @property
+    def search_index(self) -> int:
+        """Sample index of the last nearest point (-1: the next search is global)."""
+        return int(self.state[_I])
+
+    @search_index.setter
+    def search_index(self, i: int) -> None:
+        self.state[_I] = float(i)
 
     def arrived(self, tip_speed_m_s: float) -> bool:
         """True when the tip is at the end point (``arrive_tol_m``) and slow (``arrive_speed_m_s``)."""
         prm = self.params
-        return self.dist_end_m <= prm.arrive_tol_m and tip_speed_m_s <= prm.arrive_speed_m_s
+        return self.state[_DIST_END] <= prm.arrive_tol_m and tip_speed_m_s <= prm.arrive_speed_m_s
 
     # ----------------------------------------------------------------- update
     def nearest(self, x: float, y: float, z: float) -> tuple[float, float]:
         """Local nearest-point search; returns ``(s_p, |p - q(s_p)|)`` and advances the search index."""
-        px, py, pz = self._px, self._py, self._pz
-        n = self.n
-        i = self._i
-        if i < 0:  # first call: global search over the samples
-            d2 = (np.asarray(px) - x) ** 2 + (np.asarray(py) - y) ** 2 + (np.asarray(pz) - z) ** 2
-            i = int(np.argmin(d2))
-        dx, dy, dz = px[i] - x, py[i] - y, pz[i] - z
-        best = dx * dx + dy * dy + dz * dz
-        moved = False
-        for _ in range(self._max_walk):  # walk forward while the distance falls
-            if i + 1 >= n:
-                break
-            dx, dy, dz = px[i + 1] - x, py[i + 1] - y, pz[i + 1] - z
-            d = dx * dx + dy * dy + dz * dz
-            if d >= best:
-                break
-            i, best, moved = i + 1, d, True
-        if not moved:
-            for _ in range(self._max_walk):  # else walk backward
-                if i == 0:
-                    break
-                dx, dy, dz = px[i - 1] - x, py[i - 1] - y, pz[i - 1] - z
-                d = dx * dx + dy * dy + dz * dz
-                if d >= best:
-                    break
-                i, best = i - 1, d
-        self._i = i
-        # project onto the chords on both sides of sample i
-        h = self.h
-        s_best, d_best = i * h, best
-        for j in (i - 1, i):
-            if j < 0 or j + 1 >= n:
-                continue
-            ax, ay, az = px[j], py[j], pz[j]
-            ex, ey, ez = px[j + 1] - ax, py[j + 1] - ay, pz[j + 1] - az
-            ee = ex * ex + ey * ey + ez * ez
-            u = ((x - ax) * ex + (y - ay) * ey + (z - az) * ez) / ee
-            if u <= 0.0 or u >= 1.0:
-                continue
-            cx, cy, cz = ax + u * ex - x, ay + u * ey - y, az + u * ez - z
-            d = cx * cx + cy * cy + cz * cz
-            if d < d_best:
-                s_best, d_best = (j + u) * h, d
-        return s_best, math.sqrt(d_best)
+        return tracker_nearest(self.table, self.consts, self.state, x, y, z)
 
     def update(self, p: Vec3, q: Vec4, tip_speed_m_s: float = 0.0) -> None:
-        """One tracking step; sets the attributes.
+        """One tracking step (:func:`tracker_update`); sets the attributes.
 
         Parameters
         ----------
@@ -244,97 +243,17 @@ class PathTracker:
         tip_speed_m_s : float
             Current tip speed ``|p_dot|`` (m/s), for the lag preview of the speed table.
         """
-        x, y, z = p
-        s_min, s_max, k_la, v_floor, k_end, v_conv, k_q, preview = self._consts
-        s_p, dev = self.nearest(x, y, z)
-        self.s_p, self.deviation_m = s_p, dev
-        end = self.end
-        ex, ey, ez = end[0] - x, end[1] - y, end[2] - z
-        dist_end = math.sqrt(ex * ex + ey * ey + ez * ez)
-        self.dist_end_m = dist_end
-        inv_h, last = self._inv_h, self.n - 2
-
-        # look-ahead point q_Delta (000 section 2.3)
-        ds = s_min + k_la * dev
-        if ds > s_max:
-            ds = s_max
-        self.lookahead_m = ds
-        f = (s_p + ds) * inv_h
-        j = int(f)
-        if j > last:
-            j, f = last, 1.0
-        else:
-            f -= j
-        px, py, pz = self._px, self._py, self._pz
-        lx = px[j] + f * (px[j + 1] - px[j]) - x
-        ly = py[j] + f * (py[j + 1] - py[j]) - y
-        lz = pz[j] + f * (pz[j + 1] - pz[j]) - z
-        dist_la = math.sqrt(lx * lx + ly * ly + lz * lz)
-
-        # tracking speed: the plan's speed a lag ahead, floored, converging at the end
-        v2_tab = self._v2
-        g = (s_p + preview * (tip_speed_m_s if tip_speed_m_s > v_floor else v_floor)) * inv_h
-        k = int(g)
-        if k > last:
-            k, g = last, 1.0
-        else:
-            g -= k
-        v = math.sqrt(v2_tab[k] + g * (v2_tab[k + 1] - v2_tab[k]))
-        floor = k_end * dist_end  # the floor gives way to the convergence at the end point
-        if floor > v_floor:
-            floor = v_floor
-        if v < floor:
-            v = floor
-        x_end = (s_p + 2.0 * ds - self.length) / ds  # 0 at s_p + ds = l - ds, 1 at s_p + ds = l
-        if x_end > 0.0:
-            conv = k_end * dist_end
-            if conv > v_conv:
-                conv = v_conv
-            if x_end < 1.0:
-                conv *= x_end * x_end * (3.0 - 2.0 * x_end)
-            if v < conv:
-                v = conv
-        self.speed_m_s = v
-        if dist_la > 1e-9:
-            c = v / dist_la
-            self.pd_a = (c * lx, c * ly, c * lz)  # 000 eq. 3, toward the look-ahead point
-        else:
-            self.pd_a = (0.0, 0.0, 0.0)
-
-        # null-space reference: planned joint motion at s_p + pull toward the planned configuration
-        g = s_p * inv_h
-        k = int(g)
-        if k > last:
-            k, g = last, 1.0
-        else:
-            g -= k
-        (a0, a1, a2, a3), (b0, b1, b2, b3) = self._q, self._dq
-        k1 = k + 1
-        self.z = (
-            v * (b0[k] + g * (b0[k1] - b0[k])) + k_q * (a0[k] + g * (a0[k1] - a0[k]) - q[0]),
-            v * (b1[k] + g * (b1[k1] - b1[k])) + k_q * (a1[k] + g * (a1[k1] - a1[k]) - q[1]),
-            v * (b2[k] + g * (b2[k1] - b2[k])) + k_q * (a2[k] + g * (a2[k1] - a2[k]) - q[2]),
-            v * (b3[k] + g * (b3[k1] - b3[k])) + k_q * (a3[k] + g * (a3[k1] - a3[k]) - q[3]),
-        )
-
-    def _locate(self, s: float) -> tuple[int, float]:
-        """Table interval and fraction for arc length ``s`` (clipped to ``[0, l]``)."""
-        f = s / self.h
-        if f <= 0.0:
-            return 0, 0.0
-        j = int(f)
-        if j >= self.n - 1:
-            return self.n - 2, 1.0
-        return j, f - j
+        tracker_update(self.table, self.consts, self.state, p[0], p[1], p[2], q[0], q[1], q[2], q[3],
+                       tip_speed_m_s)
 
     # ----------------------------------------------------------- inspection
     def plan_speed(self, s: Any) -> np.ndarray:
         """Planned tip speed ``v_plan(s)`` (m/s) at arc lengths ``s`` (n,) (linear interpolation)."""
-        return np.sqrt(np.interp(np.asarray(s, dtype=np.float64), self.s_grid, np.asarray(self._v2)))
+        return np.sqrt(np.interp(np.asarray(s, dtype=np.float64), self.s_grid, self.table[:, _V2]))
 
     def path_points(self) -> np.ndarray:
         """The dense path samples (n, 3) (m, base frame) used for the nearest-point search."""
-        return np.column_stack([self._px, self._py, self._pz])
+        return self.table[:, :3].copy()
 
 
 def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m: float) -> dict[str, np.ndarray]:
@@ -382,3 +301,136 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     q = np.column_stack([np.interp(s, s_u, q_u[:, j]) for j in range(4)])
     dq_ds = np.gradient(q, s, axis=0)
     return {"s": s, "p": p, "v": v, "q": q, "dq_ds": dq_ds}
+
+
+@njit(cache=True)
+def _interval(f: float, last: int) -> tuple[int, float]:
+    """Table interval ``j`` and fraction for the sample coordinate ``f`` >= 0, clipped at the last interval."""
+    j = int(f)
+    if j > last:
+        return last, 1.0
+    return j, f - j
+
+
+@njit(cache=True)
+def tracker_nearest(table, consts, state, x: float, y: float, z: float) -> tuple[float, float]:
+    """Local nearest-point search of the tip ``(x, y, z)`` (m) on the path; returns ``(s_p, |p - q(s_p)|)``.
+
+    Walks along the samples from the last nearest one (``state[index]``; a global search when it is
+    -1) while the distance falls, forward first, at most the window; then projects onto the chords
+    on both sides of the sample. Advances ``state[index]``.
+    """
+    n = table.shape[0]
+    max_walk = int(consts[10])
+    i = int(state[_I])
+    if i < 0:  # first call: global search over the samples
+        d2 = (table[:, 0] - x) ** 2 + (table[:, 1] - y) ** 2 + (table[:, 2] - z) ** 2
+        i = int(np.argmin(d2))
+    dx, dy, dz = table[i, 0] - x, table[i, 1] - y, table[i, 2] - z
+    best = dx * dx + dy * dy + dz * dz
+    moved = False
+    for _ in range(max_walk):  # walk forward while the distance falls
+        if i + 1 >= n:
+            break
+        dx, dy, dz = table[i + 1, 0] - x, table[i + 1, 1] - y, table[i + 1, 2] - z
+        d = dx * dx + dy * dy + dz * dz
+        if d >= best:
+            break
+        i, best, moved = i + 1, d, True
+    if not moved:
+        for _ in range(max_walk):  # else walk backward
+            if i == 0:
+                break
+            dx, dy, dz = table[i - 1, 0] - x, table[i - 1, 1] - y, table[i - 1, 2] - z
+            d = dx * dx + dy * dy + dz * dz
+            if d >= best:
+                break
+            i, best = i - 1, d
+    state[_I] = i
+    h = consts[8]
+    s_best, d_best = i * h, best
+    for j in (i - 1, i):  # project onto the chords on both sides of sample i
+        if j < 0 or j + 1 >= n:
+            continue
+        ax, ay, az = table[j, 0], table[j, 1], table[j, 2]
+        ex, ey, ez = table[j + 1, 0] - ax, table[j + 1, 1] - ay, table[j + 1, 2] - az
+        ee = ex * ex + ey * ey + ez * ez
+        u = ((x - ax) * ex + (y - ay) * ey + (z - az) * ez) / ee
+        if u <= 0.0 or u >= 1.0:
+            continue
+        cx, cy, cz = ax + u * ex - x, ay + u * ey - y, az + u * ez - z
+        d = cx * cx + cy * cy + cz * cz
+        if d < d_best:
+            s_best, d_best = (j + u) * h, d
+    return s_best, math.sqrt(d_best)
+
+
+@njit(cache=True)
+def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float, q2: float, q3: float, q4: float,
+                   tip_speed: float) -> None:
+    """One tracking step (module docstring, 000 eq. 3) for the tip at ``(x, y, z)`` (m), joints ``q1..q4``.
+
+    Parameters
+    ----------
+    table : ndarray, shape (n, 12)
+        :data:`TABLE_COLUMNS`.
+    consts : ndarray, shape (12,)
+        ``s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau`` and the table's ``h``, ``1/h``,
+        search window (samples) and length ``l`` (m).
+    state : ndarray, shape (13,)
+        :data:`TRACKER_STATE`, updated in place.
+    tip_speed : float
+        Current tip speed ``|p_dot|`` (m/s), for the lag preview of the speed table.
+    """
+    s_min, s_max, k_la, v_floor, k_end = consts[0], consts[1], consts[2], consts[3], consts[4]
+    v_conv, k_q, preview, inv_h, length = consts[5], consts[6], consts[7], consts[9], consts[11]
+    s_p, dev = tracker_nearest(table, consts, state, x, y, z)
+    state[_S_P], state[_DEV] = s_p, dev
+    n = table.shape[0]
+    ex, ey, ez = table[n - 1, 0] - x, table[n - 1, 1] - y, table[n - 1, 2] - z
+    dist_end = math.sqrt(ex * ex + ey * ey + ez * ez)
+    state[_DIST_END] = dist_end
+    last = n - 2
+
+    # look-ahead point q_Delta (000 section 2.3)
+    ds = s_min + k_la * dev
+    if ds > s_max:
+        ds = s_max
+    state[_LOOKAHEAD] = ds
+    j, f = _interval((s_p + ds) * inv_h, last)
+    lx = table[j, 0] + f * (table[j + 1, 0] - table[j, 0]) - x
+    ly = table[j, 1] + f * (table[j + 1, 1] - table[j, 1]) - y
+    lz = table[j, 2] + f * (table[j + 1, 2] - table[j, 2]) - z
+    dist_la = math.sqrt(lx * lx + ly * ly + lz * lz)
+
+    # tracking speed: the plan's speed a lag ahead, floored, converging at the end
+    k, g = _interval((s_p + preview * (tip_speed if tip_speed > v_floor else v_floor)) * inv_h, last)
+    v = math.sqrt(table[k, _V2] + g * (table[k + 1, _V2] - table[k, _V2]))
+    floor = k_end * dist_end  # the floor gives way to the convergence at the end point
+    if floor > v_floor:
+        floor = v_floor
+    if v < floor:
+        v = floor
+    x_end = (s_p + 2.0 * ds - length) / ds  # 0 at s_p + ds = l - ds, 1 at s_p + ds = l
+    if x_end > 0.0:
+        conv = k_end * dist_end
+        if conv > v_conv:
+            conv = v_conv
+        if x_end < 1.0:
+            conv *= x_end * x_end * (3.0 - 2.0 * x_end)
+        if v < conv:
+            v = conv
+    state[_SPEED] = v
+    if dist_la > 1e-9:
+        c = v / dist_la
+        state[_PD], state[_PD + 1], state[_PD + 2] = c * lx, c * ly, c * lz  # 000 eq. 3, toward the look-ahead
+    else:
+        state[_PD], state[_PD + 1], state[_PD + 2] = 0.0, 0.0, 0.0
+
+    # null-space reference: planned joint motion at s_p + pull toward the planned configuration
+    k, g = _interval(s_p * inv_h, last)
+    q = (q1, q2, q3, q4)
+    for c in range(4):
+        a0, a1 = table[k, _Q + c], table[k + 1, _Q + c]
+        b0, b1 = table[k, _DQ + c], table[k + 1, _DQ + c]
+        state[_Z + c] = v * (b0 + g * (b1 - b0)) + k_q * (a0 + g * (a1 - a0) - q[c])

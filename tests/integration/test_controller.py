@@ -14,6 +14,7 @@ from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions
 from motionlib.planning.spline import TipSpline
+from motionlib.runtime.command import limit_weights
 from motionlib.runtime.control_types import Authority, ControllerParams, CraneState, Flag, Mode, OperatorInput
 from motionlib.runtime.controller import SharedController
 from motionlib.runtime.loop import LoopOptions, run_closed_loop
@@ -83,7 +84,8 @@ def test_weights_follow_the_joint_limit_law(lab, sample_q):
     ctl = SharedController(lab, "M6")
     for q in sample_q(lab, 30, seed=6):
         ref = joint_limit_weights(q, lab.q_min, lab.q_max, base=np.array(ctl._w_nom), margin=0.15, w_floor=1e-3)
-        np.testing.assert_allclose(ctl._weights(tuple(q.tolist()), None), ref, rtol=1e-12)
+        w = limit_weights(ctl.consts, tuple(q.tolist()), (0.0,) * 4, False)
+        np.testing.assert_allclose(w, ref, rtol=1e-12)
 
 
 def test_joint_operation_raises_the_operators_joints():
@@ -91,8 +93,8 @@ def test_joint_operation_raises_the_operators_joints():
     ctl = SharedController(lab, "M3")
     speed = np.minimum(-lab.qd_min, lab.qd_max)
     qo = (0.5 * speed[0], 0.0, 0.0, 0.0)  # the operator slews
-    w0 = np.array(ctl._weights(Q_MID, None))
-    w = np.array(ctl._weights(Q_MID, qo))
+    w0 = np.array(limit_weights(ctl.consts, Q_MID, qo, False))
+    w = np.array(limit_weights(ctl.consts, Q_MID, qo, True))
     np.testing.assert_allclose(w / w0, [10.0, 0.1, 0.1, 0.1])
     # mapped to p_o = J qd_o and resolved with these weights, the slew does nearly all of it
     jac = lab.jacobian(np.array(Q_MID))

@@ -97,9 +97,9 @@ def _integrate(tracker: PathTracker, crane: Crane, p0: np.ndarray, q0: np.ndarra
         if tracker.arrived(speed):
             break
         v1 = np.array(tracker.pd_a)
-        saved = tracker._i
+        saved = tracker.search_index
         tracker.update(tuple(p + 0.5 * dt * v1), q, speed)
-        tracker._i = saved
+        tracker.search_index = saved
         v2 = np.array(tracker.pd_a)
         p = p + dt * v2
         speed = float(np.linalg.norm(v2))
