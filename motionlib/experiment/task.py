@@ -41,7 +41,7 @@ from ..errors import InputError
 from ..planning.trajectory import Trajectory
 from ..runtime.control_types import Mode, OperatorInput
 from ..runtime.controller import SharedController
-from ..runtime.operators import Observation, SimulatedOperator
+from ..runtime.operators import FastPlan, Observation, SimulatedOperator
 from .panel import PanelOperator, phase_seed
 from .scenario import Log, Scenario
 
@@ -138,16 +138,9 @@ class LoadingTask:
             self._event(t, "cycle_start", self._log.name)
         phase = self._phase
         if phase == "hands":
-            op = self._op
-            if op is None:
+            if self._op is None:
                 raise RuntimeError("LoadingTask: hands phase without an operator model")
-            inp = op.input(obs)
-            if op.takeover is not None and not self._takeover_logged:
-                self._takeover_logged = True
-                self._event(op.takeover[0], "takeover", op.takeover[1])
-            if op.done(obs) and not self.controller.automation_active:
-                self._begin_dwell(t)
-            return inp
+            return self._after_hands(obs, self._op.input(obs))
         if phase == "wait" and t >= self._t_next:
             self._start_part(obs)
             return OperatorInput(t, _REST, False)  # the button press; the hands start next step
@@ -159,6 +152,20 @@ class LoadingTask:
 
     def done(self, obs: Observation) -> bool:
         return self._phase == "finished"
+
+    def fast_plan(self) -> FastPlan:
+        """How the compiled closed loop may step the task (:class:`~motionlib.runtime.operators.FastPlan`).
+
+        The hands' model runs compiled; Python takes the step at the end of a wait or dwell, when the
+        hands' phase changes (takeover, done) and, once the hands are done, when the automated motion
+        has ended (the grapple action starts).
+        """
+        op = self._op
+        if self._phase == "hands" and op is not None:
+            return FastPlan(op, done=False, resume=self._after_hands, python_when_manual=op.phase == "done")
+        if self._phase in ("wait", "dwell"):
+            return FastPlan(op, python_at=self._t_next, done=False)
+        return FastPlan(op, done=self._phase == "finished")
 
     @property
     def finished(self) -> bool:
@@ -192,6 +199,18 @@ class LoadingTask:
                                      self.controller.crane, seed=seed, name=self.member.name, via=via)
         self._takeover_logged = False
         self._phase = "hands"
+
+    def _after_hands(self, obs: Observation, inp: OperatorInput) -> OperatorInput:
+        """The hands gave ``inp``: log a takeover; once they are done and no automation runs, the grapple acts."""
+        op = self._op
+        if op is None:
+            raise RuntimeError("LoadingTask: hands phase without an operator model")
+        if op.takeover is not None and not self._takeover_logged:
+            self._takeover_logged = True
+            self._event(op.takeover[0], "takeover", op.takeover[1])
+        if op.done(obs) and not self.controller.automation_active:
+            self._begin_dwell(obs.t)
+        return inp
 
     def _begin_dwell(self, t: float) -> None:
         sc, log, kind = self.scenario, self._log, self._kind

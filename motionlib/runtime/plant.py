@@ -676,9 +676,9 @@ class SimulatedCrane:
         ``rotator_cmd`` (rad/s): the grapple rotator's velocity command (ignored without a
         rotator). A non-finite command component is treated as 0 (the valve closes).
         """
-        a = self.arrays
-        if a.prm[P_NOISE] > 0.0 and a.clock[C_NOISE] + 4 > a.normals.size:
+        if self.arrays.prm[P_NOISE] > 0.0 and self.arrays.clock[C_NOISE] + 4 > self.arrays.normals.size:
             self.refill_noise()
+        a = self.arrays
         if self._surfaces is not None and self._surfaces.has_obstacles:
             a = a._replace(planes=self._surfaces.planes(self.grapple))
         cmd = (float(qd_cmd[0]), float(qd_cmd[1]), float(qd_cmd[2]), float(qd_cmd[3]))

@@ -427,3 +427,28 @@ def test_takeover_is_recorded_where_the_operator_took_over(tiny):
                 speed * 0.5 / PATH_RATE_HZ + 1e-6)
     assert "time-to-arrival" not in reasons["O5"]
     assert reasons["O1"] <= {"distance", "time-to-arrival"} and reasons["O1"]
+
+
+@pytest.mark.parametrize(("name", "mode"), [("O1", "M5"), ("O5", "M3"), ("O2", "M4")])
+def test_series_run_compiled_as_in_python(tiny, name, mode):
+    """A whole series (the task's waits, grabs and dwells, takeovers, aborts, library motions started
+    mid-run) gives the same records in the compiled loop (motionlib.runtime.fast_loop) as stepped in
+    Python, to the last bit."""
+    from dataclasses import replace
+
+    from motionlib.experiment.series import ExperimentContext, run_series
+    from motionlib.runtime.loop import LoopOptions
+
+    _, lib = tiny
+    results = []
+    for compiled in (False, True):
+        ctx = ExperimentContext(lib)
+        ctx.execute_options = replace(ctx.execute_options, loop=LoopOptions(compiled=compiled))
+        results.append(run_series(ctx, name, mode, 1, cycles=1))
+    python, fast = results
+    assert python.finished and python.cycles
+    assert [(e.t, e.name, e.cycle, e.detail) for e in python.events] == [
+        (e.t, e.name, e.cycle, e.detail) for e in fast.events]
+    assert repr(python.cycles) == repr(fast.cycles) and repr(python.transitions) == repr(fast.transitions)
+    np.testing.assert_array_equal(python.path_p, fast.path_p)
+    assert python.simulated_s == fast.simulated_s

@@ -1,0 +1,112 @@
+"""The compiled closed loop (motionlib.runtime.fast_loop) against the same loop stepped in Python.
+
+The reference is the per-step objects driven by Python (``LoopOptions(compiled=False)``): the
+controller's ``step``, the operator's ``input`` and the simulated crane's ``advance``. The compiled
+loop must give the same run to the last bit: every log row, every event with its time and detail,
+the settled time, and the objects' states at the end, through every way a segment returns to Python
+(the obstacle guard's fcl distance, a takeover, an abort, a longer perception buffer, more noise).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionlib import Crane, ExecuteOptions, PlanOptions, Scene, plan
+from motionlib.runtime import fast_loop
+from motionlib.runtime.execute import prepare_run
+from motionlib.runtime.loop import LoopOptions, run_closed_loop
+from motionlib.runtime.operators import PassiveOperator, ScriptedStick, SimulatedOperator
+from motionlib.runtime.plant import SimParams
+
+SCENE = "obstacles/log-loading.yaml"
+
+
+@pytest.fixture(scope="module")
+def setting():
+    crane = Crane.load("lab")
+    scene = Scene.load(SCENE)
+    out = plan(crane, scene, "target-center", "pickup-between").raise_for_status().trajectory
+    back = plan(crane, scene, "pickup-a", "target-center", PlanOptions(loaded=True)).raise_for_status().trajectory
+    return crane, scene, {"out": out, "back": back}
+
+
+def _run(setting, which, mode, operator, compiled, guard=True, sim=None, **overrides):
+    crane, scene, trajs = setting
+    traj = trajs[which]
+    opts = ExecuteOptions(seed=3, obstacle_guard=guard, sim=sim or SimParams())
+    ctl, plant = prepare_run(crane, scene, mode, traj.q[0], loaded=traj.info.loaded, options=opts)
+    ctl.start_motion(traj)
+    target = crane.fk(traj.q[-1]) + np.array([0.12, -0.1, 0.05])
+    if operator == "passive":
+        op = PassiveOperator()
+    else:
+        op = SimulatedOperator.preset(operator, target, mode, ctl.joystick, crane, seed=5, via=traj.waypoints[1:-1],
+                                      **overrides)
+    res = run_closed_loop(ctl, plant, op, LoopOptions(time_limit_s=40.0, compiled=compiled))
+    return res, ctl, plant, op
+
+
+def _assert_same_run(a, b):
+    (ra, ca, sa, oa), (rb, cb, sb, ob) = a, b
+    assert (ra.steps, ra.settled, ra.cycle_time_s, ra.diagnostics) == (rb.steps, rb.settled, rb.cycle_time_s,
+                                                                       rb.diagnostics)
+    la, lb = ra.log.arrays(), rb.log.arrays()
+    assert la.keys() == lb.keys()
+    for key in la:
+        np.testing.assert_array_equal(la[key], lb[key], err_msg=key)
+    assert [(e.t, e.name, e.detail) for e in ra.log.events] == [(e.t, e.name, e.detail) for e in rb.log.events]
+    np.testing.assert_array_equal(ca.state, cb.state)
+    np.testing.assert_array_equal(ca.mixer.state, cb.mixer.state)
+    assert repr(ca.status) == repr(cb.status)  # (NaN where no motion runs)
+    np.testing.assert_array_equal(sa.arrays.joints, sb.arrays.joints)
+    np.testing.assert_array_equal(sa.arrays.pend, sb.arrays.pend)
+    assert (sa.t, sa.q, sa.qd, sa.tip, sa.grapple) == (sb.t, sb.q, sb.qd, sb.tip, sb.grapple)
+    if isinstance(oa, SimulatedOperator):
+        np.testing.assert_array_equal(oa.state, ob.state)
+        assert (oa.phase, oa.takeover, oa.abort_pressed_at) == (ob.phase, ob.takeover, ob.abort_pressed_at)
+
+
+@pytest.mark.parametrize(
+    ("which", "mode", "operator"),
+    [
+        ("out", "M6", "passive"),  # automation to its arrival, then manual Cartesian (guard, hands off)
+        ("out", "M6", "novice"),  # shared: takeover, weak zone, handover; the guard's fcl distance near the wall
+        ("back", "M6", "expert"),  # loaded, the expert's habits (joint levers in Cartesian operation, distrust)
+        ("out", "M3", "novice"),  # shared with joint operation (raised weights)
+        ("out", "M5", "expert"),  # traded: the abort
+        ("out", "M1", "expert"),  # manual joint operation along the route's via points
+    ],
+)
+def test_compiled_loop_gives_the_python_loops_run(setting, which, mode, operator):
+    python = _run(setting, which, mode, operator, compiled=False)
+    compiled = _run(setting, which, mode, operator, compiled=True)
+    _assert_same_run(python, compiled)
+    res = compiled[0]
+    assert res.steps > 1000 and len(res.log) == res.steps
+
+
+def test_compiled_loop_grows_its_buffers_like_python(setting):
+    """A slow reaction (2 s: more steps than a new perception buffer holds) and flow noise in the
+    plant (its normals run out every 256 steps): both are refilled between segments, in order."""
+    noisy = SimParams(noise_frac=0.05, seed=11)
+    python = _run(setting, "out", "M4", "novice", compiled=False, sim=noisy, reaction_time_s=2.0)
+    compiled = _run(setting, "out", "M4", "novice", compiled=True, sim=noisy, reaction_time_s=2.0)
+    _assert_same_run(python, compiled)
+    op = compiled[3]
+    assert op.seen.shape[0] > 256 and compiled[0].steps > 3 * 256
+
+
+def test_runs_the_compiled_loop_cannot_take_stay_in_python(setting, tmp_path):
+    """A stick script has no fast plan, and sensors are read in Python: those loops run as before."""
+    crane, scene, trajs = setting
+    ctl, plant = prepare_run(crane, scene, "M4", trajs["out"].q[0], options=ExecuteOptions(obstacle_guard=False))
+    script = tmp_path / "stick.csv"
+    script.write_text("t,left_x,left_y,right_x,right_y,abort\n0,0,0.5,0,0,0\n1,0,0,0,0,0\n")
+    stick = ScriptedStick.load(script)
+    assert not fast_loop.fast_loop_supported(ctl, plant, stick, ())
+    assert fast_loop.fast_loop_supported(ctl, plant, PassiveOperator(), ())
+    assert not fast_loop.fast_loop_supported(ctl, plant, PassiveOperator(), (lambda sim: None,))
+    res = run_closed_loop(ctl, plant, stick, LoopOptions(time_limit_s=5.0))
+    tip = res.log.arrays(crane)["tip_p"]
+    assert res.settled and np.linalg.norm(tip[-1] - tip[0]) > 0.1  # the script moved the tip
