@@ -68,9 +68,10 @@ class RunLog:
             return
         if self._rows:
             self._blocks.append(np.array(self._rows, dtype=np.float64))
+            self._n_blocks += len(self._rows)
             self._rows = []
         self._blocks.append(rows.copy())
-        self._n_blocks = sum(len(b) for b in self._blocks)
+        self._n_blocks += len(rows)
 
     def append(self, t: float, q: Any, qd: Any, status: Any, swing_rad: float) -> None:
         """One step: time (s), measured ``q`` (4,), ``qd`` (4,), the controller status, swing angle (rad).
