@@ -6,6 +6,8 @@ control_types
     Modes M1-M6, flags, authority, measured state, operator input, status, parameters, events.
 controller
     :class:`~.controller.SharedController`: one ``step(state, inputs) -> qd_cmd`` (000 section 2).
+command
+    The controller's command law compiled: mode logic, ``p_s``, resolved rate, limits (steps 3-5).
 sources
     Input sources of the summing junction (001 Fig. 1): joysticks, path tracker, position source.
 frames_source
@@ -38,6 +40,8 @@ resolved_rate
     Weighted, damped pseudo-inverse with null-space term (000 eq. 2, 001 eq. 7).
 operators
     Simulated operators: passive, scripted (CSV), novice and expert models (the experts with habits).
+operator_model
+    The simulated operator's step compiled: perception delay, takeover, corrections, minimum-jerk stick.
 plant
     :class:`~.plant.SimulatedCrane`: hydraulic joints (with the grapple rotator on a crane that
     has one), end stops and the swinging grapple.
@@ -50,6 +54,8 @@ rotator
     automation's planned rotator profile.
 loop
     :func:`~.loop.run_closed_loop`: sensors + controller + plant + operator at the control rate.
+fast_loop
+    The same closed loop run compiled, many steps per call, on the objects' arrays (same results).
 runlog
     The 200 Hz run log and its HDF5 file.
 metrics

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from .control_types import Event
 from .mixer import mixer_update
 from .resolved_rate import resolve_rate_fast
 
@@ -51,8 +52,20 @@ CONST_SCALARS: tuple[str, ...] = (
 # flags (motionlib.runtime.control_types.Flag) and authorities (Authority) as plain ints for compiled code
 F_VEL, F_ACC, F_POS, F_GUARD, F_DAMPED = 16, 32, 64, 128, 256
 A_MANUAL, A_TRADED, A_SHARED, A_STOPPED = 0, 1, 2, 3
-#: Event codes of :func:`command_law` (and of the compiled loop's motion events).
+#: Codes of the events that end an automated motion (:func:`command_law`, the compiled loop).
 EV_NONE, EV_HANDOVER, EV_ABORT, EV_ARRIVAL = 0, 1, 2, 3
+
+
+def motion_event(code: int, t: float, value: float) -> Event:
+    """The controller's event for a motion that ended at ``t`` (s): an abort, an arrival ``value`` m from
+    the end point, or a handover after ``value`` s of interaction time in a weak zone."""
+    if code == EV_ARRIVAL:
+        return Event(t, "arrival", f"{value * 1000:.1f} mm from the end point")
+    if code == EV_HANDOVER:
+        return Event(t, "handover", f"t_o {value:.2f} s in a weak zone")
+    if code == EV_ABORT:
+        return Event(t, "abort")
+    raise ValueError(f"code: expected EV_ABORT, EV_ARRIVAL or EV_HANDOVER, got {code!r}")
 
 
 def command_consts(vectors: dict[str, Any], scalars: dict[str, float]) -> np.ndarray:

@@ -31,10 +31,10 @@ states and joystick samples. One step:
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
    i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
    weights of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`, SVD-equivalent damping
-   near singularities, null-space term), evaluated here in closed form on plain floats
-   (the smallest eigenvalue of the 3 x 3 ``J W J^T`` gives ``sigma_min``) because numpy's
-   per-call overhead alone exceeds the step budget; ``tests/test_controller.py`` checks it
-   against ``resolve_rate``. Nominal weights ``w_i = qd_lim_i^2`` make the minimised
+   near singularities, null-space term), evaluated in closed form on floats
+   (:func:`~motionlib.runtime.resolved_rate.resolve_rate_fast`: the smallest eigenvalue of the
+   3 x 3 ``J W J^T`` gives ``sigma_min``); ``tests/test_controller.py`` checks it against
+   ``resolve_rate``. Nominal weights ``w_i = qd_lim_i^2`` make the minimised
    ``qd^T W^-1 qd`` the sum of squared fractions of each joint's speed. In joint operation
    the weights of the joints the operator moves are raised (``operator_weight_raise``) and
    the others lowered (``operator_weight_lower``) (000 section 2.4, last paragraph).
@@ -46,7 +46,10 @@ states and joystick samples. One step:
    uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
    brakes at up to ``qdd_max`` on its own. The command is always finite.
 
-Flags and events are in :attr:`SharedController.status` and :attr:`SharedController.events`.
+Steps 3-5 are the compiled command law of :mod:`motionlib.runtime.command` on the controller's
+arrays (:attr:`SharedController.consts`, :attr:`SharedController.state`), which the compiled
+closed loop (:mod:`motionlib.runtime.fast_loop`) runs too. Flags and events are in
+:attr:`SharedController.status` and :attr:`SharedController.events`.
 """
 
 from __future__ import annotations
@@ -63,7 +66,10 @@ from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
 from .command import (
     COMMAND_STATE,
+    EV_ABORT,
+    EV_ARRIVAL,
     EV_HANDOVER,
+    K_DV_CAP,
     S_AUTHORITY,
     S_AUTO,
     S_C_A,
@@ -79,6 +85,7 @@ from .command import (
     command_consts,
     command_law,
     finish_command,
+    motion_event,
 )
 from .control_types import (
     GRAVITY_M_S2,
@@ -379,10 +386,6 @@ class SharedController:
         """
         return self._motion_end if self.state[S_AUTO] else None
 
-    def _end_motion(self, t: float, name: str, detail: str = "") -> None:
-        self.state[S_AUTO] = 0.0
-        self.events.append(Event(t, name, detail))
-
     # --------------------------------------------------------------------- step
     def step(self, state: CraneState, inputs: OperatorInput | None) -> np.ndarray:
         """One control step: measured state + operator input -> joint velocity command.
@@ -531,7 +534,8 @@ class SharedController:
 
         # automation: abort, sources, arrival
         if cs[S_AUTO] and abort:
-            self._end_motion(ctx.t, "abort")
+            cs[S_AUTO] = 0.0
+            self.events.append(motion_event(EV_ABORT, ctx.t, 0.0))
         auto = bool(cs[S_AUTO])
         pa = _ZERO3
         za: Vec4 | None = None
@@ -555,7 +559,8 @@ class SharedController:
             cs[S_S_P], cs[S_DEV] = motion.s_p, motion.deviation_m
             deviation, dist_end = motion.deviation_m, motion.dist_end_m
             if motion.arrived(ctx):
-                self._end_motion(ctx.t, "arrival", f"{motion.dist_end_m * 1000:.1f} mm from the end point")
+                self.state[S_AUTO] = 0.0
+                self.events.append(motion_event(EV_ARRIVAL, ctx.t, motion.dist_end_m))
                 auto = False
                 pa, za = _ZERO3, None
         else:
@@ -574,7 +579,7 @@ class SharedController:
             za is not None, float(deviation), float(dist_end), po_guarded, c_o, flags,
         )
         if event == EV_HANDOVER:
-            self.events.append(Event(ctx.t, "handover", f"t_o {self.mixer.t_o:.2f} s in a weak zone"))
+            self.events.append(motion_event(EV_HANDOVER, ctx.t, self.mixer.t_o))
 
     def _guard(self, q: Vec4, po: Vec3) -> tuple[Vec3, float]:
         """The guarded operator velocity ``c_o p_o`` (3,) (m/s) and ``c_o`` (1 without a guard)."""
@@ -585,9 +590,9 @@ class SharedController:
 
     def _ramp_to_zero(self) -> None:
         """Decelerate the previous command toward 0 within qdd_max (state unknown)."""
-        cs, cap = self.state, self.consts
+        cs, c = self.state, self.consts
         for i in range(4):
-            v, dv = float(cs[S_CMD + i]), float(cap[i])  # the constants start with dv_cap
+            v, dv = float(cs[S_CMD + i]), float(c[K_DV_CAP + i])
             cs[S_CMD + i] = 0.0 if abs(v) <= dv else v - math.copysign(dv, v)
 
 

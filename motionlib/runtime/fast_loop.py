@@ -58,8 +58,9 @@ from .command import (
     S_SPEED_O,
     S_T,
     command_law,
+    motion_event,
 )
-from .control_types import Event, OperatorInput
+from .control_types import OperatorInput
 from .controller import SharedController
 from .hydraulics import Q, V
 from .mixer import GUARD_CACHE, MIXER_STATE, guard_clear
@@ -102,7 +103,6 @@ SCRATCH: tuple[str, ...] = (
  W_C_O) = (0, 4, 5, 8, 12, 13, 16, 20, 21, 22, 23, 24, 25, 26, 29)
 _BLOCK_ROWS = 4096
 _EVENT_ROWS = 64
-_EVENT_NAMES = {EV_ABORT: "abort", EV_ARRIVAL: "arrival", EV_HANDOVER: "handover"}
 
 
 class ControllerArrays(NamedTuple):
@@ -299,13 +299,7 @@ class FastLoop:
             cnt[N_ROWS] = 0
         ctl = self.controller
         for t, code, value in self.events[: int(cnt[N_EVENTS])].tolist():
-            if code == EV_ARRIVAL:
-                detail = f"{value * 1000:.1f} mm from the end point"
-            elif code == EV_HANDOVER:
-                detail = f"t_o {value:.2f} s in a weak zone"
-            else:
-                detail = ""
-            ctl.events.append(Event(t, _EVENT_NAMES[int(code)], detail))
+            ctl.events.append(motion_event(int(code), t, value))
         cnt[N_EVENTS] = 0
         self.sim.sync()
         ctl._publish()

@@ -13,7 +13,7 @@ from motionlib.errors import InputError, LibraryFileError
 from motionlib.planning.spline import TipSpline
 from motionlib.runtime.control_types import ControllerStatus, Event
 from motionlib.runtime.metrics import FilterOptions, filtered_derivatives, path_deviation, run_summary, smoothness
-from motionlib.runtime.runlog import RunLog, read_runlog, tip_motion, write_runlog
+from motionlib.runtime.runlog import COLUMNS, RunLog, read_runlog, tip_motion, write_runlog
 
 FS = 200.0
 
@@ -145,6 +145,32 @@ def test_runlog_arrays_and_tip_motion(lab):
     np.testing.assert_allclose(arr["tip_v"], jac_v, atol=1e-8)
     p, v = tip_motion(lab, np.zeros((0, 4)), np.zeros((0, 4)))
     assert p.shape == (0, 3) and v.shape == (0, 3)
+
+
+def test_runlog_blocks_and_rows_keep_their_order(lab):
+    """Rows appended one by one and blocks from the compiled loop (RunLog.extend) come out in order."""
+    whole = _fake_log(lab).arrays()
+    rows = np.column_stack([whole[k] if whole[k].ndim == 2 else whole[k][:, None] for k in
+                            ("t", "q", "qd", "qd_cmd", "c_a", "c_o", "s_p", "deviation_m", "flags", "authority",
+                             "swing_rad")])
+    assert rows.shape == (500, len(COLUMNS))
+    mixed = RunLog()
+    st = ControllerStatus()
+    for a, b in ((0, 100), (100, 130), (130, 400), (400, 401), (401, 500)):
+        if (a // 100) % 2:  # alternately a block and single rows
+            mixed.extend(rows[a:b])
+        else:
+            for r in rows[a:b].tolist():
+                st.qd_cmd, st.c_a, st.c_o, st.s_p, st.deviation_m = tuple(r[9:13]), r[13], r[14], r[15], r[16]
+                st.flags, st.authority = int(r[17]), int(r[18])
+                mixed.append(r[0], r[1:5], r[5:9], st, r[19])
+        assert len(mixed) == b and mixed.t_end == rows[b - 1, 0]
+    mixed.extend(rows[:0])  # an empty block changes nothing
+    got = mixed.arrays()
+    for key, value in whole.items():
+        np.testing.assert_array_equal(got[key], value, err_msg=key)
+    with pytest.raises(ValueError):
+        mixed.extend(rows[:, :5])
 
 
 def test_runlog_file_round_trip(lab, tmp_path: Path):
