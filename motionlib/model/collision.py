@@ -572,6 +572,8 @@ def _result(best: Closest | None) -> DistanceResult:
 
 def _joint_values(q: Any) -> tuple[float, float, float, float, float | None]:
     """q1..q4 of a (4,) or (5,) configuration and the log's yaw ``q1 + q5`` (None without q5)."""
+    if type(q) is tuple and len(q) == 4 and all(type(v) is float and math.isfinite(v) for v in q):
+        return q[0], q[1], q[2], q[3], None  # (the controller's measured state)
     if type(q) is np.ndarray and q.shape == (4,) and q.dtype == np.float64:
         values = q.tolist()
         if all(map(math.isfinite, values)):
