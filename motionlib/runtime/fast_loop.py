@@ -232,7 +232,9 @@ class FastLoop:
         stage = STAGE_NEW
         while True:
             plan = self.operator.fast_plan()
-            if plan is None and stage == STAGE_NEW:  # the operator cannot be stepped in compiled code now
+            # Python takes the step when the operator cannot be stepped in compiled code now, or when the
+            # controller's input was stale or not finite (its next fresh input is an event)
+            if stage == STAGE_NEW and (plan is None or ctl._stale or ctl._nonfinite):
                 code = EXIT_PYTHON
             else:
                 self._configure(plan)

@@ -479,7 +479,7 @@ class MinimumJerkStick:
 
 #: Rows of a new operator's ring buffer of observations (grown when a reaction time holds more).
 _SEEN_ROWS = 256
-_NORMALS_BLOCK = 1024  # standard normals drawn at a time for the hand noise
+_NORMALS_BLOCK = 8192  # standard normals drawn at a time for the hand noise
 _PHASES = ("wait", "act", "done")
 _TAKEOVER_KINDS = {BY_DISTANCE: "distance", BY_TIME_TO_ARRIVAL: "time-to-arrival"}
 
