@@ -36,6 +36,7 @@ this module only speeds up simulations.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -64,12 +65,21 @@ from .control_types import OperatorInput
 from .controller import SharedController
 from .hydraulics import Q, V
 from .mixer import GUARD_CACHE, MIXER_STATE, guard_clear
-from .operator_model import DONE, X_NORMAL, X_PHASE, X_SEEN_COUNT, operator_input
+from .operator_model import (
+    DONE,
+    N_OPERATOR_CONSTS,
+    OPERATOR_STATE,
+    STICK,
+    X_NORMAL,
+    X_PHASE,
+    X_SEEN_COUNT,
+    operator_input,
+)
 from .operators import FastPlan, Observation
 from .plant import C_H_LAST, C_NOISE, C_T, GRAPPLE, P_NOISE, TIP, TIP_PREV, SimulatedCrane, plant_period
 from .runlog import COLUMNS, RunLog
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
-from .tracker import TRACKER_STATE, tracker_update
+from .tracker import TABLE_COLUMNS, TRACKER_STATE, tracker_update
 
 EXIT_SETTLED, EXIT_LIMIT, EXIT_PYTHON, EXIT_OPERATOR, EXIT_GUARD, EXIT_FLUSH, EXIT_ROOM = range(1, 8)
 #: Where :func:`run_segment` starts: a new step, or within one after the operator or the guard.
@@ -96,11 +106,11 @@ N_STEPS, N_CALM, N_ROWS, N_EVENTS = range(4)
 #: Entries of the scratch array that carries a step across an exit.
 SCRATCH: tuple[str, ...] = (
     "a1", "a2", "a3", "a4", "abort", "po_x", "po_y", "po_z", "qo1", "qo2", "qo3", "qo4", "has_qo", "pa_x", "pa_y",
-    "pa_z", "za1", "za2", "za3", "za4", "has_za", "deviation", "dist_end", "speed_o", "auto", "flags", "pg_x", "pg_y",
-    "pg_z", "c_o",
+    "pa_z", "za1", "za2", "za3", "za4", "has_za", "deviation", "dist_end", "speed_o", "auto", "pg_x", "pg_y", "pg_z",
+    "c_o",
 )
-(W_AXES, W_ABORT, W_PO, W_QO, W_HAS_QO, W_PA, W_ZA, W_HAS_ZA, W_DEV, W_DIST_END, W_SPEED_O, W_AUTO, W_FLAGS, W_PG,
- W_C_O) = (0, 4, 5, 8, 12, 13, 16, 20, 21, 22, 23, 24, 25, 26, 29)
+(W_AXES, W_ABORT, W_PO, W_QO, W_HAS_QO, W_PA, W_ZA, W_HAS_ZA, W_DEV, W_DIST_END, W_SPEED_O, W_AUTO, W_PG, W_C_O) = (
+    0, 4, 5, 8, 12, 13, 16, 20, 21, 22, 23, 24, 25, 28)
 _BLOCK_ROWS = 4096
 _EVENT_ROWS = 64
 
@@ -133,8 +143,8 @@ class OperatorArrays(NamedTuple):
     normals: np.ndarray
 
 
-_NO_OPERATOR = OperatorArrays(np.zeros(40), np.zeros(21), np.zeros(29), np.zeros((1, 7)), np.zeros((0, 3)),
-                              np.zeros((1, 1), dtype=np.int64), np.zeros(0))
+_NO_OPERATOR = OperatorArrays(np.zeros(N_OPERATOR_CONSTS), np.zeros(len(OPERATOR_STATE)), np.zeros(len(STICK)),
+                              np.zeros((1, 7)), np.zeros((0, 3)), np.zeros((1, 1), dtype=np.int64), np.zeros(0))
 
 
 def fast_loop_supported(controller: SharedController, sim: SimulatedCrane, operator: Any, senses: tuple) -> bool:
@@ -175,7 +185,8 @@ def controller_arrays(controller: SharedController) -> ControllerArrays:
         setup[U_END:U_END + 3] = tr.end
         table, tconsts, tstate = tr.table, tr.consts, tr.state
     else:
-        table, tconsts, tstate = np.zeros((2, 12)), np.zeros(12), np.zeros(len(TRACKER_STATE))
+        table = np.zeros((2, len(TABLE_COLUMNS)))
+        tconsts, tstate = np.zeros(12), np.zeros(len(TRACKER_STATE))
     return ControllerArrays(controller.consts, controller.state, controller.mixer.consts, controller.mixer.state,
                             controller.kin.g, gains, setup, table, tconsts, tstate,
                             guard.cache if guard is not None else np.zeros(len(GUARD_CACHE)))
@@ -213,7 +224,7 @@ class FastLoop:
         self.rows = np.zeros((_BLOCK_ROWS, len(COLUMNS)))
         self.events = np.zeros((_EVENT_ROWS, 3))
 
-    def run(self, steps: int, calm: int, python_step: Any) -> tuple[int, int, bool]:
+    def run(self, steps: int, calm: int, python_step: Callable[[int], tuple[bool, int]]) -> tuple[int, int, bool]:
         """Continue the loop after ``steps`` steps (``calm`` of them settled in a row) to its end.
 
         Parameters

@@ -110,3 +110,51 @@ def test_runs_the_compiled_loop_cannot_take_stay_in_python(setting, tmp_path):
     res = run_closed_loop(ctl, plant, stick, LoopOptions(time_limit_s=5.0))
     tip = res.log.arrays(crane)["tip_p"]
     assert res.settled and np.linalg.norm(tip[-1] - tip[0]) > 0.1  # the script moved the tip
+
+
+def test_array_layouts_match_their_names():
+    """Every named offset into the compiled code's arrays points at the entry of that name."""
+    from motionlib.runtime import command, operator_model, plant
+
+    layouts = [
+        (command.COMMAND_STATE, {"cmd1": command.S_CMD, "automation_active": command.S_AUTO,
+                                 "authority": command.S_AUTHORITY, "c_a": command.S_C_A, "c_o": command.S_C_O,
+                                 "sigma_min": command.S_SIGMA, "flags": command.S_FLAGS, "s_p": command.S_S_P,
+                                 "deviation_m": command.S_DEV, "speed_o": command.S_SPEED_O, "t": command.S_T,
+                                 "p_x": command.S_P}),
+        (operator_model.OPERATOR_STATE, {"phase": operator_model.X_PHASE, "t_last": operator_model.X_T_LAST,
+                                         "next_update": operator_model.X_NEXT_UPDATE,
+                                         "choice1": operator_model.X_CHOICE, "noise1": operator_model.X_NOISE,
+                                         "dt_cached": operator_model.X_DT_CACHED, "decay": operator_model.X_DECAY,
+                                         "spread": operator_model.X_SPREAD, "takeover_t": operator_model.X_TAKEOVER_T,
+                                         "takeover_kind": operator_model.X_TAKEOVER_KIND,
+                                         "abort_at": operator_model.X_ABORT_AT, "via_index": operator_model.X_VIA,
+                                         "normal_index": operator_model.X_NORMAL,
+                                         "seen_head": operator_model.X_SEEN_HEAD,
+                                         "seen_count": operator_model.X_SEEN_COUNT}),
+        (operator_model.OPERATOR_CONSTS, {"reaction_time_s": operator_model.O_REACTION,
+                                          "base_frame": operator_model.O_BASE_FRAME}),
+        (operator_model.STICK, {"t0": operator_model.K_T0, "target1": operator_model.K_TARGET,
+                                "c0_1": operator_model.K_COEF}),
+        (plant.PLANT_PARAMS, {"dt_sub": plant.P_DT_SUB, "load": plant.P_LOAD, "noise": plant.P_NOISE}),
+        (plant.PLANT_CLOCK, {"t": plant.C_T, "hits": plant.C_HITS, "noise_index": plant.C_NOISE}),
+        (fast_loop.SETUP, {"joint_joystick": fast_loop.U_JOINT_JS, "base_frame": fast_loop.U_BASE,
+                           "has_motion": fast_loop.U_MOTION, "motion_gain_x": fast_loop.U_GAIN,
+                           "arrive_tol_m": fast_loop.U_TOL, "arrive_speed_m_s": fast_loop.U_SPEED,
+                           "end_x": fast_loop.U_END, "has_guard": fast_loop.U_GUARD, "traded": fast_loop.U_TRADED,
+                           "joint_operation": fast_loop.U_JOINT_OP}),
+        (fast_loop.SCRATCH, {"a1": fast_loop.W_AXES, "abort": fast_loop.W_ABORT, "po_x": fast_loop.W_PO,
+                             "qo1": fast_loop.W_QO, "has_qo": fast_loop.W_HAS_QO, "pa_x": fast_loop.W_PA,
+                             "za1": fast_loop.W_ZA, "has_za": fast_loop.W_HAS_ZA, "deviation": fast_loop.W_DEV,
+                             "dist_end": fast_loop.W_DIST_END, "speed_o": fast_loop.W_SPEED_O,
+                             "auto": fast_loop.W_AUTO, "pg_x": fast_loop.W_PG, "c_o": fast_loop.W_C_O}),
+        (fast_loop.CONFIG, {"n_max": fast_loop.L_N_MAX, "dt": fast_loop.L_DT, "has_model": fast_loop.L_MODEL}),
+    ]
+    for names, offsets in layouts:
+        assert len(set(names)) == len(names)
+        for name, k in offsets.items():
+            assert names[k] == name, (name, k)
+    n_scalars = len(operator_model.OPERATOR_CONSTS)
+    assert operator_model.O_JS_GAINS == n_scalars and operator_model.N_OPERATOR_CONSTS == n_scalars + 22
+    assert len(command.CONST_VECTORS) * 4 == command.K_LAG
+    assert command.K_JOINT_OP == command.K_LAG + len(command.CONST_SCALARS) - 1
