@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from motionlib import Crane, ExecuteOptions, PlanOptions, Scene, plan
 from motionlib.runtime import fast_loop
+from motionlib.runtime.control_types import ControllerParams
 from motionlib.runtime.execute import prepare_run
 from motionlib.runtime.loop import LoopOptions, run_closed_loop
 from motionlib.runtime.operators import PassiveOperator, ScriptedStick, SimulatedOperator
@@ -84,6 +87,27 @@ def test_compiled_loop_gives_the_python_loops_run(setting, which, mode, operator
     _assert_same_run(python, compiled)
     res = compiled[0]
     assert res.steps > 1000 and len(res.log) == res.steps
+
+
+@settings(max_examples=25, deadline=None)
+@given(mode=st.sampled_from(["M1", "M2", "M3", "M4", "M5", "M6"]), operator=st.sampled_from(["novice", "expert"]),
+       which=st.sampled_from(["out", "back"]), seed=st.integers(0, 10_000), guard=st.booleans(),
+       ramp=st.booleans())
+def test_any_run_is_the_same_compiled(setting, mode, operator, which, seed, guard, ramp):
+    """Property: for any mode, operator, motion, seed, guard and command ramp, 8 s of the compiled loop
+    are the Python loop's 8 s."""
+    crane, scene, trajs = setting
+    traj = trajs[which]
+    runs = []
+    for compiled in (False, True):
+        opts = ExecuteOptions(seed=seed, obstacle_guard=guard, controller=ControllerParams(command_ramp=ramp))
+        ctl, plant = prepare_run(crane, scene, mode, traj.q[0], loaded=traj.info.loaded, options=opts)
+        ctl.start_motion(traj)
+        op = SimulatedOperator.preset(operator, crane.fk(traj.q[-1]), mode, ctl.joystick, crane, seed=seed,
+                                      via=traj.waypoints[1:-1])
+        res = run_closed_loop(ctl, plant, op, LoopOptions(time_limit_s=8.0, compiled=compiled))
+        runs.append((res, ctl, plant, op))
+    _assert_same_run(*runs)
 
 
 def test_compiled_loop_grows_its_buffers_like_python(setting):
