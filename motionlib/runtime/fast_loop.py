@@ -224,6 +224,15 @@ class FastLoop:
         self.rows = np.zeros((_BLOCK_ROWS, len(COLUMNS)))
         self.events = np.zeros((_EVENT_ROWS, 3))
 
+    def load(self) -> None:
+        """Load the compiled loop for this run's arrays (or, once after an install, compile it), without stepping."""
+        plan = self.operator.fast_plan()
+        config = self.config.copy()
+        config[L_PYTHON_AT] = -math.inf  # returns before the first step
+        run_segment(controller_arrays(self.controller), operator_arrays(plan.model if plan else None),
+                    self.sim.arrays, config, self.counters.copy(), self.scratch.copy(), self.rows, self.events,
+                    STAGE_NEW)
+
     def run(self, steps: int, calm: int, python_step: Callable[[int], tuple[bool, int]]) -> tuple[int, int, bool]:
         """Continue the loop after ``steps`` steps (``calm`` of them settled in a row) to its end.
 

@@ -68,8 +68,9 @@ class LoopResult:
         Time (s) at which the tip settled (the start of the settled window), or the time
         limit when it did not.
     wall_time_s : float
-        Wall-clock time of the loop from its second step on (s): the first step loads the
-        compiled parts (numba's cache, or compiles them once after an install).
+        Wall-clock time of the loop from its second step on (s): the first step and the
+        compiled loop's load come before (they load numba's cache, or compile once after an
+        install).
     steps : int
     dt_s : float
         Control period (s).
@@ -173,9 +174,12 @@ def run_closed_loop(
     # the compiled loop where the run allows it (:mod:`motionlib.runtime.fast_loop`), else Python
     settled, calm = python_step(0)
     steps = 1
-    t0 = time.perf_counter()  # the wall clock starts after the first step
+    fast = None
     if not settled and steps < n_max and opts.compiled and fast_loop_supported(controller, sim, operator, senses):
         fast = FastLoop(controller, sim, operator, log, n_max, hold_steps, settle_v2)
+        fast.load()
+    t0 = time.perf_counter()  # the wall clock starts after the first step and the compiled loop's load
+    if fast is not None:
         steps, calm, settled = fast.run(steps, calm, python_step)
     else:
         while not settled and steps < n_max:

@@ -524,7 +524,7 @@ class SimulatedOperator:
         if not isinstance(params, OperatorParams):
             raise InputError(f"params: expected OperatorParams, got {type(params).__name__}")
         self.goal = check_vector(goal_p, 3, "goal_p")
-        self.via = np.zeros((0, 3)) if via is None or len(via) == 0 else check_points(via, "via")
+        self.via = np.ascontiguousarray(np.zeros((0, 3)) if via is None or len(via) == 0 else check_points(via, "via"))
         self.params = params
         self.mode = Mode.parse(mode)
         if self.mode.joint_operation and not isinstance(joystick, JointJoystick):
