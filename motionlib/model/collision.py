@@ -526,13 +526,11 @@ class CollisionChecker:
         if not self._obstacles:
             return None
         found = None
-        gaps = []
-        for part in parts:
-            lo = np.minimum(part.a, part.b) - part.radius
-            hi = np.maximum(part.a, part.b) + part.radius
-            gap = np.maximum(0.0, np.maximum(self._obstacle_lo - hi, lo - self._obstacle_hi))
-            gaps.append(np.sqrt((gap * gap).sum(axis=1)))
-        bounds = np.array(gaps)
+        ends = np.array([(part.a, part.b) for part in parts])  # (k, 2, 3)
+        radius = np.array([part.radius for part in parts])[:, None]
+        lo, hi = ends.min(axis=1) - radius, ends.max(axis=1) + radius  # the parts' boxes (k, 3)
+        gap = np.maximum(0.0, np.maximum(self._obstacle_lo[None] - hi[:, None], lo[:, None] - self._obstacle_hi[None]))
+        bounds = np.sqrt((gap * gap).sum(axis=2))  # (k, obstacles): box-to-box distances
         order = np.argsort(bounds, axis=None)
         limit = best[0] if best is not None else math.inf
         for flat in order:
