@@ -64,6 +64,15 @@ def tip_point_jacobian(g, q1: float, q2: float, q3: float, q4: float):
     return p, jac
 
 
+@njit(cache=True)
+def tip_speed(jac, qd) -> float:
+    """Tip speed ``|J qd|`` (m/s) for the Jacobian ``jac`` (12,) row by row and the joint rates ``qd`` (4,)."""
+    vx = jac[0] * qd[0] + jac[1] * qd[1] + jac[2] * qd[2] + jac[3] * qd[3]
+    vy = jac[4] * qd[0] + jac[5] * qd[1] + jac[6] * qd[2] + jac[7] * qd[3]
+    vz = jac[8] * qd[0] + jac[9] * qd[1] + jac[10] * qd[2] + jac[11] * qd[3]
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
 class TipKinematics:
     """Tip position and Jacobian of :class:`~motionlib.model.kinematics.Crane` on plain floats.
 

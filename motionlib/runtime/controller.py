@@ -61,7 +61,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..model.fast_kinematics import TipKinematics, Vec3, Vec4
+from ..model.fast_kinematics import TipKinematics, Vec3, Vec4, tip_speed
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
 from .command import (
@@ -440,7 +440,7 @@ class SharedController:
         ctx = self._ctx
         ctx.t, ctx.q, ctx.qd, ctx.p, ctx.jac, ctx.axes = t, q, qd_meas, p, jac, axes
         ctx.q5, ctx.qd5 = getattr(state, "rotator", _NO_ROTATOR)
-        ctx.tip_speed = _tip_speed(jac, qd_meas)
+        ctx.tip_speed = tip_speed(jac, qd_meas)
         cs[S_P:S_P + 3] = p
 
         if stale:  # target 0, reached within the limits
@@ -646,10 +646,4 @@ def _sanitize_axes(raw: Any) -> tuple[Vec4, int]:
         flags |= _NONFINITE
     return (vals[0], vals[1], vals[2], vals[3]), flags
 
-
-def _tip_speed(jac: tuple[float, ...], qd: Vec4) -> float:
-    vx = jac[0] * qd[0] + jac[1] * qd[1] + jac[2] * qd[2] + jac[3] * qd[3]
-    vy = jac[4] * qd[0] + jac[5] * qd[1] + jac[6] * qd[2] + jac[7] * qd[3]
-    vz = jac[8] * qd[0] + jac[9] * qd[1] + jac[10] * qd[2] + jac[11] * qd[3]
-    return math.sqrt(vx * vx + vy * vy + vz * vz)
 

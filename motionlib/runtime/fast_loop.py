@@ -42,7 +42,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from ..model.fast_kinematics import tip_point_jacobian
+from ..model.fast_kinematics import tip_point_jacobian, tip_speed
 from .command import (
     EV_ABORT,
     EV_ARRIVAL,
@@ -76,7 +76,7 @@ from .operator_model import (
     operator_input,
 )
 from .operators import FastPlan, Observation
-from .plant import C_H_LAST, C_NOISE, C_T, GRAPPLE, P_NOISE, TIP, TIP_PREV, SimulatedCrane, plant_period
+from .plant import C_NOISE, C_T, GRAPPLE, P_NOISE, TIP, SimulatedCrane, plant_period, rod_angle, tip_velocity
 from .runlog import COLUMNS, RunLog
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
 from .tracker import TABLE_COLUMNS, TRACKER_STATE, tracker_update
@@ -327,14 +327,17 @@ class FastLoop:
         ctl._publish()
 
     def _observation(self) -> Observation:
-        sim, ctl = self.sim, self.controller
-        obs = Observation()
-        obs.t, obs.p, obs.v = sim.t, sim.tip, sim.tip_velocity
-        q, qd = sim.q, sim.qd
-        obs.q, obs.qd = (q[0], q[1], q[2], q[3]), (qd[0], qd[1], qd[2], qd[3])
-        obs.automation_active = ctl.automation_active
-        obs.motion_end = ctl.motion_end_p
-        return obs
+        return observe(Observation(), self.sim, self.controller)
+
+
+def observe(obs: Observation, sim: SimulatedCrane, controller: SharedController) -> Observation:
+    """Fill ``obs`` with what an operator sees of ``sim`` and ``controller`` at the start of a step; ``obs``."""
+    q, qd = sim.q, sim.qd
+    obs.t, obs.p, obs.v = sim.t, sim.tip, sim.tip_velocity
+    obs.q, obs.qd = (q[0], q[1], q[2], q[3]), (qd[0], qd[1], qd[2], qd[3])
+    obs.automation_active = controller.automation_active
+    obs.motion_end = controller.motion_end_p
+    return obs
 
 
 @njit(cache=True)
@@ -344,11 +347,8 @@ def _observe(plant):
     q = (j[Q, 0], j[Q, 1], j[Q, 2], j[Q, 3])
     qd = (j[V, 0], j[V, 1], j[V, 2], j[V, 3])
     tip = (pend[TIP, 0], pend[TIP, 1], pend[TIP, 2])
-    h = plant.clock[C_H_LAST]
-    v = ((pend[TIP, 0] - pend[TIP_PREV, 0]) / h, (pend[TIP, 1] - pend[TIP_PREV, 1]) / h,
-         (pend[TIP, 2] - pend[TIP_PREV, 2]) / h)
-    rx, ry, rz = pend[GRAPPLE, 0] - tip[0], pend[GRAPPLE, 1] - tip[1], pend[GRAPPLE, 2] - tip[2]
-    return plant.clock[C_T], q, qd, tip, v, rx, ry, math.atan2(math.sqrt(rx * rx + ry * ry), -rz)
+    rx, ry = pend[GRAPPLE, 0] - tip[0], pend[GRAPPLE, 1] - tip[1]
+    return plant.clock[C_T], q, qd, tip, tip_velocity(pend, plant.clock), rx, ry, rod_angle(pend)
 
 
 @njit(cache=True)
@@ -484,14 +484,12 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
                 scratch[W_ABORT] = 0.0
             stage = STAGE_AFTER_OPERATOR
         p, jac = tip_point_jacobian(ctl.g, q[0], q[1], q[2], q[3])
-        tip_speed = math.sqrt((jac[0] * qd[0] + jac[1] * qd[1] + jac[2] * qd[2] + jac[3] * qd[3]) ** 2
-                              + (jac[4] * qd[0] + jac[5] * qd[1] + jac[6] * qd[2] + jac[7] * qd[3]) ** 2
-                              + (jac[8] * qd[0] + jac[9] * qd[1] + jac[10] * qd[2] + jac[11] * qd[3]) ** 2)
+        speed = tip_speed(jac, qd)
         if stage == STAGE_AFTER_OPERATOR:
             cs[S_T] = t
             for i in range(3):
                 cs[S_P + i] = p[i]
-            if not _gather(ctl, t, q, qd, p, jac, tip_speed, scratch, events, counters):
+            if not _gather(ctl, t, q, qd, p, jac, speed, scratch, events, counters):
                 return EXIT_GUARD
             stage = STAGE_AFTER_GUARD
         w = scratch

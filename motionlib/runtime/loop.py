@@ -20,7 +20,7 @@ from ..checks import check_params, param
 from ..errors import InputError
 from .control_types import Authority
 from .controller import SharedController
-from .fast_loop import FastLoop, fast_loop_supported
+from .fast_loop import FastLoop, fast_loop_supported, observe
 from .operators import Observation, Operator
 from .plant import SimulatedCrane
 from .runlog import RunLog
@@ -146,12 +146,7 @@ def run_closed_loop(
             for sense in senses:
                 sense(sim)
         state = sim.state()
-        vx, vy, vz = sim.tip_velocity
-        q, qd = sim.q, sim.qd
-        obs.t, obs.p, obs.v = state.t, sim.tip, (vx, vy, vz)
-        obs.q, obs.qd = (q[0], q[1], q[2], q[3]), (qd[0], qd[1], qd[2], qd[3])
-        obs.automation_active = controller.automation_active
-        obs.motion_end = controller.motion_end_p
+        vx, vy, vz = observe(obs, sim, controller).v
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)

@@ -173,6 +173,11 @@ def joint_rates(c, subsets, g, q, vx: float, vy: float, vz: float):
 
 
 @njit(cache=True)
+def _dist(a0: float, a1: float, a2: float, b) -> float:
+    return math.sqrt((a0 - b[0]) ** 2 + (a1 - b[1]) ** 2 + (a2 - b[2]) ** 2)
+
+
+@njit(cache=True)
 def choose_axes(c, state, via, subsets, g, p, q, p_seen, v_seen):
     """One correction: stick axes (4,) for the velocity toward the aim, or rest (phase DONE) when close enough.
 
@@ -185,10 +190,8 @@ def choose_axes(c, state, via, subsets, g, p, q, p_seen, v_seen):
     ax, ay, az = c[O_GOAL_EST], c[O_GOAL_EST + 1], c[O_GOAL_EST + 2]
     k = int(state[X_VIA])
     while k < via.shape[0]:  # the next via point, unless passed or farther than the target
-        dx, dy, dz = via[k, 0] - p_seen[0], via[k, 1] - p_seen[1], via[k, 2] - p_seen[2]
-        d_via = math.sqrt(dx * dx + dy * dy + dz * dz)
-        ex, ey, ez = gx - p_seen[0], gy - p_seen[1], gz - p_seen[2]
-        if d_via <= c[O_VIA_RADIUS] or math.sqrt(ex * ex + ey * ey + ez * ez) < d_via:
+        d_via = _dist(via[k, 0], via[k, 1], via[k, 2], p_seen)
+        if d_via <= c[O_VIA_RADIUS] or _dist(gx, gy, gz, p_seen) < d_via:
             k += 1
             continue
         ax, ay, az = via[k, 0], via[k, 1], via[k, 2]
@@ -234,11 +237,6 @@ def arrives_within(end, p, v, tau_s: float) -> bool:
     d2 = ex * ex + ey * ey + ez * ez
     closing_d = v[0] * ex + v[1] * ey + v[2] * ez  # closing speed times d
     return closing_d > 0.0 and d2 <= tau_s * closing_d  # d / closing <= tau
-
-
-@njit(cache=True)
-def _dist(a0: float, a1: float, a2: float, b) -> float:
-    return math.sqrt((a0 - b[0]) ** 2 + (a1 - b[1]) ** 2 + (a2 - b[2]) ** 2)
 
 
 @njit(cache=True)

@@ -152,8 +152,6 @@ from .operator_model import (
     BY_DISTANCE,
     BY_TIME_TO_ARRIVAL,
     DONE,
-    K_T0,
-    K_TARGET,
     OPERATOR_STATE,
     STICK,
     X_ABORT_AT,
@@ -470,11 +468,6 @@ class MinimumJerkStick:
     def retarget(self, t: float, target: tuple[float, float, float, float]) -> None:
         """Start a movement toward ``target`` (4,) at time ``t`` (s), from the axes' current state."""
         stick_retarget(self.array, self.move_s, float(t), _floats(target, 4))
-
-    def at_rest(self, t: float) -> bool:
-        """The movement has ended and every axis is at 0."""
-        a = self.array
-        return not a[K_TARGET:K_TARGET + 4].any() and t >= a[K_T0] + self.move_s
 
 
 #: Rows of a new operator's ring buffer of observations (grown when a reaction time holds more).

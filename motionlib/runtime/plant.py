@@ -437,6 +437,21 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
     clock[C_H_LAST] = h
 
 
+@njit(cache=True)
+def tip_velocity(pend, clock) -> tuple[float, float, float]:
+    """Tip velocity (3,) (m/s) over the last substep (backward difference of ``pend``'s tip rows)."""
+    h = clock[C_H_LAST]
+    return ((pend[TIP, 0] - pend[TIP_PREV, 0]) / h, (pend[TIP, 1] - pend[TIP_PREV, 1]) / h,
+            (pend[TIP, 2] - pend[TIP_PREV, 2]) / h)
+
+
+@njit(cache=True)
+def rod_angle(pend) -> float:
+    """Angle (rad) of the grapple rod (``pend``'s grapple minus tip) from the vertical."""
+    rx, ry, rz = pend[GRAPPLE, 0] - pend[TIP, 0], pend[GRAPPLE, 1] - pend[TIP, 1], pend[GRAPPLE, 2] - pend[TIP, 2]
+    return math.atan2(math.sqrt(rx * rx + ry * ry), -rz)
+
+
 class PlantArrays(NamedTuple):
     """The arrays of one simulated crane that :func:`plant_period` takes after the command (see there)."""
 
@@ -626,10 +641,7 @@ class SimulatedCrane:
     @property
     def swing_rad(self) -> float:
         """Angle (rad) of the grapple rod from the vertical."""
-        rx = self.grapple[0] - self.tip[0]
-        ry = self.grapple[1] - self.tip[1]
-        rz = self.grapple[2] - self.tip[2]
-        return math.atan2(math.sqrt(rx * rx + ry * ry), -rz)
+        return rod_angle(self.arrays.pend)
 
     @property
     def contact_force(self) -> tuple[float, float, float]:
@@ -664,10 +676,7 @@ class SimulatedCrane:
     @property
     def tip_velocity(self) -> tuple[float, float, float]:
         """Tip velocity (m/s) over the last substep (backward difference)."""
-        pend = self.arrays.pend
-        (tx, ty, tz), (px, py, pz) = pend[TIP].tolist(), pend[TIP_PREV].tolist()
-        h = float(self.arrays.clock[C_H_LAST])
-        return ((tx - px) / h, (ty - py) / h, (tz - pz) / h)
+        return tip_velocity(self.arrays.pend, self.arrays.clock)
 
     # --------------------------------------------------------------- advance
     def advance(self, qd_cmd: Sequence[float], duration_s: float, rotator_cmd: float = 0.0) -> None:
@@ -679,7 +688,7 @@ class SimulatedCrane:
         if self.arrays.prm[P_NOISE] > 0.0 and self.arrays.clock[C_NOISE] + 4 > self.arrays.normals.size:
             self.refill_noise()
         a = self.arrays
-        if self._surfaces is not None and self._surfaces.has_obstacles:
+        if not self.fixed_planes and self._surfaces is not None:
             a = a._replace(planes=self._surfaces.planes(self.grapple))
         cmd = (float(qd_cmd[0]), float(qd_cmd[1]), float(qd_cmd[2]), float(qd_cmd[3]))
         plant_period(cmd, float(rotator_cmd), float(duration_s), *a)
