@@ -496,7 +496,7 @@ def make_fixtures(workdir: Path) -> Fixtures:
     from motionlib.library.spec import LibrarySpec
     from motionlib.planning.trajectory import save_plan
     from motionlib.progress import LogProgress
-    from motionlib.runtime.execute import ExecuteOptions
+    from motionlib.sim.execute import ExecuteOptions
 
     workdir.mkdir(parents=True, exist_ok=True)
     spec = {
@@ -569,7 +569,7 @@ def _use_spec(path: Path) -> Any:
 
 
 def _use_script(path: Path) -> Any:
-    from motionlib.runtime.operators import Observation, ScriptedStick
+    from motionlib.sim.operators import Observation, ScriptedStick
 
     stick = ScriptedStick.load(path)
     obs = Observation()
@@ -606,7 +606,7 @@ def _use_library(path: Path) -> Any:
 
 
 def _use_runlog(path: Path) -> Any:
-    from motionlib.runtime.runlog import read_runlog, tip_motion
+    from motionlib.control.runlog import read_runlog, tip_motion
 
     log = read_runlog(path)
     tip_motion(_shipped("lab")[0], log["q"], log["qd"])

@@ -18,7 +18,7 @@ per-step objects timed with ``perf_counter``, as a real machine's loop calls the
 simulator's ``advance`` time (median), and the closed loop's speed as a multiple of real time
 (``LoopResult.real_time_factor``: simulated seconds per wall second of ``run_closed_loop`` from its
 second step on, which includes the operator model and the 200 Hz log; best of ``--repeat`` runs)
-and the loop's time per step: compiled (``motionlib.runtime.fast_loop``, the default) with the
+and the loop's time per step: compiled (``motionlib.sim.fast_loop``, the default) with the
 default second-order hydraulic plant and with its first-order option (``x real 1st``), and
 stepped in Python (``LoopOptions(compiled=False)``, ``x real py``) with the ratio of the two.
 The obstacle guard's fcl distance queries (``fcl calls``) run in Python in both.
@@ -36,10 +36,10 @@ import time
 import numpy as np
 
 from motionlib import Crane, ExecuteOptions, PlanOptions, Scene, plan
-from motionlib.runtime.execute import prepare_run
-from motionlib.runtime.loop import LoopOptions, run_closed_loop
-from motionlib.runtime.operators import make_operator
-from motionlib.runtime.plant import SimParams
+from motionlib.sim.execute import prepare_run
+from motionlib.sim.loop import LoopOptions, run_closed_loop
+from motionlib.sim.operators import make_operator
+from motionlib.sim.plant import SimParams
 
 SCENARIOS = (
     ("M6 passive", "out", "M6", "passive"),

@@ -65,9 +65,9 @@ def _axes(rng: np.random.Generator) -> tuple[float, ...]:
 
 def run_sequence(seed: int, i: int) -> tuple[str, int, Counter]:
     """Run sequence ``i``; its mode, its number of steps and the violations counted."""
-    from motionlib.runtime.control_types import OperatorInput
-    from motionlib.runtime.controller import SharedController
-    from motionlib.runtime.plant import SimulatedCrane
+    from motionlib.control.control_types import OperatorInput
+    from motionlib.control.controller import SharedController
+    from motionlib.sim.plant import SimulatedCrane
 
     crane, traj = _setup()
     rng = np.random.default_rng([seed, i])

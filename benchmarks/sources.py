@@ -3,13 +3,13 @@
 Run: ``python benchmarks/sources.py [--steps N]``
 
 Lab crane, mode M4 (manual Cartesian), the stick held at a constant deflection pushing the grapple
-into the ground, the simulated crane's ground contact (:mod:`motionlib.runtime.contact`) on:
+into the ground, the simulated crane's ground contact (:mod:`motionlib.sim.contact`) on:
 
 * ``stick``: the default Cartesian joystick (the tip, cylindrical mapping);
-* ``stick on log end``: the joystick wrapped in a :class:`~motionlib.runtime.frames_source.FrameSource`
+* ``stick on log end``: the joystick wrapped in a :class:`~motionlib.control.frames_source.FrameSource`
   (MRF ``log_end``, slew-following CRF, 001 eq. 1);
-* ``+ accommodation``: the wrapped stick and an :class:`~motionlib.runtime.accommodation.AccommodationSource`;
-* ``vision rate``: :meth:`~motionlib.runtime.vision.VisionSource.rate` alone (camera capture, latency
+* ``+ accommodation``: the wrapped stick and an :class:`~motionlib.control.accommodation.AccommodationSource`;
+* ``vision rate``: :meth:`~motionlib.control.vision.VisionSource.rate` alone (camera capture, latency
   queue, eq. 1), as the controller would call it.
 
 Per configuration: median and p99 of ``SharedController.step`` (or of the source's ``rate``) over
@@ -25,17 +25,18 @@ import time
 
 import numpy as np
 
+from motionlib.control.accommodation import AccommodationSource
+from motionlib.control.control_types import OperatorInput
+from motionlib.control.controller import SharedController
+from motionlib.control.frames_source import FrameSource
+from motionlib.control.sources import CartesianJoystick, StepContext
+from motionlib.control.vision import VisionSource
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.frames import SLEW_CRF, standard_mrfs
 from motionlib.model.kinematics import Crane
-from motionlib.runtime.accommodation import AccommodationSource
-from motionlib.runtime.contact import ContactParams
-from motionlib.runtime.control_types import OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.plant import SimParams, SimulatedCrane
-from motionlib.runtime.sources import CartesianJoystick, StepContext
-from motionlib.runtime.vision import CameraParams, SimulatedCamera, VisionSource
+from motionlib.sim.camera import CameraParams, SimulatedCamera
+from motionlib.sim.contact import ContactParams
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 DT = 0.005
 AXES = (0.3, 0.2, 0.0, -0.5)

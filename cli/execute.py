@@ -57,9 +57,9 @@ def execute(
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
-    from motionlib.runtime.control_types import ControllerParams
-    from motionlib.runtime.operators import operator_kind
-    from motionlib.runtime.plant import SimParams
+    from motionlib.control.control_types import ControllerParams
+    from motionlib.sim.operators import operator_kind
+    from motionlib.sim.plant import SimParams
 
     operator_kind(operator_spec)  # fail early on a bad --operator
     vision = _vision_options(vision_target, vision_gains)

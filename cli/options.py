@@ -12,8 +12,8 @@ import click
 import numpy as np
 
 from motionlib.checks import COORDINATE_M, parse_csv_floats
+from motionlib.control.control_types import Mode
 from motionlib.errors import InputError
-from motionlib.runtime.control_types import Mode
 
 F = TypeVar("F", bound=Callable[..., Any])
 

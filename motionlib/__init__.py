@@ -9,7 +9,7 @@ build_library(spec, output, ...) -> BuildSummary
 Library.open(path).select(target_p, current_q, utility) -> SelectionResult
     Rank a library's trajectories for an operator's target (003 eqs. 5.3-5.7).
 execute(trajectory, crane, scene, mode=..., operator=..., target=...) -> RunResult
-    Run a trajectory in the 200 Hz shared-control loop on the simulated crane (:mod:`motionlib.runtime`).
+    Run a trajectory in the 200 Hz shared-control loop on the simulated crane (:mod:`motionlib.sim`).
 execute_dual(DualScenario.load(path), options) -> DualResult
     Two simulated cranes carry one log by one MRF command, with force-moment accommodation (001 section 3).
 log_loading_experiment(config, out_dir) -> ExperimentReport
@@ -31,7 +31,8 @@ Subpackages follow the data flow; a lower layer never imports a higher one:
 ``motionlib.model``     crane model, kinematics, limits, scene, collision, URDF
 ``motionlib.planning``  path, spline, telescope redundancy, timing, verification, planner
 ``motionlib.library``   library spec, parallel build, HDF5 store, selection
-``motionlib.runtime``   controller, sources, mixer, simulated crane, closed loop, run log
+``motionlib.control``  what a machine runs at 200 Hz: controller, sources, tracker, mixer, run log
+``motionlib.sim``      the simulated crane, sensors, model operators, closed loops, ``execute``
 ``motionlib.analysis``  recorded crane work: states, joint usage, replanned moves
 ``motionlib.viz``       figures and the 3D viewer
 ``motionlib.experiment`` the log-loading experiment
@@ -62,8 +63,8 @@ _EXPORTS: dict[str, str] = {
     # jobs
     "plan": "motionlib.planning.planner",
     "build_library": "motionlib.library.build",
-    "execute": "motionlib.runtime.execute",
-    "execute_dual": "motionlib.runtime.dual",
+    "execute": "motionlib.sim.execute",
+    "execute_dual": "motionlib.sim.dual",
     "log_loading_experiment": "motionlib.experiment.runner",
     "write_view": "motionlib.viz.viewer",
     "analyze_recording": "motionlib.analysis.work_analysis",
@@ -81,15 +82,15 @@ _EXPORTS: dict[str, str] = {
     "PlanStatus": "motionlib.planning.planner",
     "BuildSummary": "motionlib.library.build",
     "SelectionResult": "motionlib.library.selection",
-    "Mode": "motionlib.runtime.control_types",
-    "RunResult": "motionlib.runtime.execute",
-    "ExecuteOptions": "motionlib.runtime.execute",
-    "VisionOptions": "motionlib.runtime.vision",
-    "AccommodationOptions": "motionlib.runtime.accommodation",
-    "DualScenario": "motionlib.runtime.dual_scenario",
-    "DualOptions": "motionlib.runtime.dual",
-    "DualResult": "motionlib.runtime.dual",
-    "DualStatus": "motionlib.runtime.dual",
+    "Mode": "motionlib.control.control_types",
+    "RunResult": "motionlib.sim.execute",
+    "ExecuteOptions": "motionlib.sim.execute",
+    "VisionOptions": "motionlib.control.vision",
+    "AccommodationOptions": "motionlib.control.accommodation",
+    "DualScenario": "motionlib.sim.dual_scenario",
+    "DualOptions": "motionlib.sim.dual",
+    "DualResult": "motionlib.sim.dual",
+    "DualStatus": "motionlib.sim.dual",
     "ExperimentConfig": "motionlib.experiment.runner",
     "ExperimentReport": "motionlib.experiment.runner",
     "ViewOptions": "motionlib.viz.viewer",
@@ -145,6 +146,8 @@ __all__ = [
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.replan import ReplanReport, replan_recording
     from .analysis.work_analysis import WorkAnalysis, analyze_recording
+    from .control.accommodation import AccommodationOptions
+    from .control.control_types import Mode
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library
     from .library.selection import SelectionResult
@@ -154,12 +157,10 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .model.scene import Scene
     from .planning.planner import PlanOptions, PlanResult, PlanStatus, plan
     from .planning.trajectory import Trajectory, load_plan
-    from .runtime.accommodation import AccommodationOptions
-    from .runtime.control_types import Mode
-    from .runtime.dual import DualOptions, DualResult, DualStatus, execute_dual
-    from .runtime.dual_scenario import DualScenario
-    from .runtime.execute import ExecuteOptions, RunResult, execute
-    from .runtime.vision import VisionOptions
+    from .sim.camera import VisionOptions
+    from .sim.dual import DualOptions, DualResult, DualStatus, execute_dual
+    from .sim.dual_scenario import DualScenario
+    from .sim.execute import ExecuteOptions, RunResult, execute
     from .viz.viewer import ViewOptions, write_view
 
 

@@ -238,9 +238,9 @@ def _load_scene(path: Path, name: str, crane: Crane) -> Scene:
 
 # --------------------------------------------------------------------- run log
 def _read_runlog(path: Path, crane: Crane | None, scene: Scene | None) -> Recording:
+    from ..control.runlog import read_runlog
     from ..errors import LibraryFileError
     from ..library.store import Library
-    from ..runtime.runlog import read_runlog
 
     try:
         log = read_runlog(path)

@@ -2,7 +2,7 @@
 
 A simulated operator looks at an intended target; the head follows the gaze only partly and
 with scatter, and an IMU measures it. The system estimates the target with the operator's
-calibrated head-to-gaze model (:mod:`motionlib.runtime.gaze`) and selects a library trajectory
+calibrated head-to-gaze model (:mod:`motionlib.control.gaze`) and selects a library trajectory
 (003 eqs. 5.3-5.7). :func:`gaze_selection_study` counts, per head-noise level, how often the
 selected trajectory *serves* the intended target (its end point lies within ``serve_m`` of it)
 with each selection rule:
@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_points, check_scalar, check_vector
+from ..control.gaze import HeadGazeModel, estimate_target, gaze_angles
 from ..errors import InputError
 from ..library.selection import SelectionIndex
-from ..runtime.gaze import HeadGazeModel, estimate_target, gaze_angles
 
 RULES = ("time", "robust-fixed", "robust-gaze", "nearest")
 

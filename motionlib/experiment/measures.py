@@ -1,18 +1,18 @@
 """Smoothness over parts of a series: total jerk per work cycle (000 eq. 6) and transition windows (000 Fig. 8).
 
 The tip position of a whole series is filtered and differentiated once
-(:func:`motionlib.runtime.metrics.filtered_derivatives`: zero-phase 4th-order Butterworth; the
+(:func:`motionlib.control.metrics.filtered_derivatives`: zero-phase 4th-order Butterworth; the
 experiment's series use 15.9 Hz, ``motionlib.experiment.series.NOISE_FILTER``,
 central differences), so a cycle boundary is not a filter edge. Over a window
 ``[t0, t1]`` (the samples with ``t0 <= t <= t1``, trapezoidal rule):
 
 * ``total_jerk = 1/2 int |p'''|^2 dt`` (m^2/s^5), 000 eq. 6 as motionlib implements it (the
-  text's jerk; see :mod:`motionlib.runtime.metrics` for the printed formula's second derivative,
+  text's jerk; see :mod:`motionlib.control.metrics` for the printed formula's second derivative,
   reported as ``total_sq_acceleration = 1/2 int |p''|^2 dt``, m^2/s^3);
 * the peaks of ``|p''|`` and ``|p'''|``.
 
 A series starts at rest and ends settled, the ends where the filter's odd-reflection padding
-is exact (:mod:`motionlib.runtime.metrics`).
+is exact (:mod:`motionlib.control.metrics`).
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_scalar
+from ..control.metrics import FilterOptions, filtered_derivatives, jerk_measures
 from ..errors import InputError
-from ..runtime.metrics import FilterOptions, filtered_derivatives, jerk_measures
 
 
 @dataclass(frozen=True)

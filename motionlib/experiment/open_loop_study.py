@@ -2,12 +2,12 @@
 
 003 Paper II tested open-loop execution with trajectory modification "in various conditions,
 such as the invariability to load and reasonably deviating initial conditions". This study
-does that on the simulated crane (:mod:`motionlib.runtime.open_loop`):
+does that on the simulated crane (:mod:`motionlib.control.open_loop`):
 
 * **the machine**: a simulated crane whose valves are off their calibration by a seeded
   random factor per joint and direction (uniform within ``+-gain_error``) and whose raising
   functions lose ``load_speed_loss`` of their speed with a log (both
-  :class:`~motionlib.runtime.plant.SimParams` parameters; the values are assumptions);
+  :class:`~motionlib.sim.plant.SimParams` parameters; the values are assumptions);
 * **the executions**: ``n_runs`` (>= 20) conditions, each with a seeded random load case (no
   log or a log, i.e. the rated load) and a start that deviates from the trajectory's start
   by a seeded normal error (``start_sigma_rad`` on the rotary joints, ``start_sigma_m`` on
@@ -31,13 +31,13 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_int, check_params, param
+from ..control.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
 from ..errors import InputError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
-from ..runtime.execute import ExecuteOptions, execute
-from ..runtime.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
-from ..runtime.plant import SimParams, SimulatedCrane
+from ..sim.execute import ExecuteOptions, execute
+from ..sim.plant import SimParams, SimulatedCrane
 
 
 @dataclass(frozen=True)

@@ -1,13 +1,13 @@
 """The operator panel of the experiment: two experts (O1, O2) and three novices (O3-O5) (000 section 3.3).
 
-Each simulated operator is a :class:`motionlib.runtime.operators.SimulatedOperator` whose parameters
+Each simulated operator is a :class:`motionlib.sim.operators.SimulatedOperator` whose parameters
 are interpolated between the runtime's ``novice`` and ``expert`` presets
-(:data:`motionlib.runtime.operators.OPERATOR_PRESETS`, each parameter reasoned there) by a *skill*
+(:data:`motionlib.sim.operators.OPERATOR_PRESETS`, each parameter reasoned there) by a *skill*
 ``s`` in [0, 1]::
 
     value = novice + s (expert - novice),   max_joints = round(1 + 2 s)
 
-except the experts' habits (:data:`motionlib.runtime.operators.HABIT_PARAMETERS`: the joint habit
+except the experts' habits (:data:`motionlib.sim.operators.HABIT_PARAMETERS`: the joint habit
 of years of joint operation and the distrust of automation near the target), which are not a
 matter of degree of skill but of the operator's history: each operator has those of its group's
 preset (the professional drivers O1 and O2 the expert's, the novices none).
@@ -31,7 +31,7 @@ import hashlib
 from dataclasses import dataclass, fields, replace
 
 from ..errors import InputError
-from ..runtime.operators import HABIT_PARAMETERS, OPERATOR_PRESETS, OperatorParams
+from ..sim.operators import HABIT_PARAMETERS, OPERATOR_PRESETS, OperatorParams
 
 #: The interpolated parameters (the others are the presets' common values).
 _INTERPOLATED = ("reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "stick_move_s",
@@ -73,7 +73,7 @@ def params_for_skill(skill: float, group: str | None = None) -> OperatorParams:
     skill : float
         In [0, 1].
     group : {"expert", "novice"}, optional
-        Whose habits (:data:`~motionlib.runtime.operators.HABIT_PARAMETERS`) the operator has,
+        Whose habits (:data:`~motionlib.sim.operators.HABIT_PARAMETERS`) the operator has,
         taken whole from that preset; default the nearer preset's (``expert`` for ``skill >= 0.5``).
     """
     if not 0.0 <= float(skill) <= 1.0:

@@ -13,7 +13,7 @@ again. The logs lie at seeded random points of the scene's pile regions, release
 random points of its bunk-drop region. The operator knows a route to each point (the
 waypoints of a plan to it, as an operator knows where the stakes are) and drives the crane
 with the hands and reactions of its panel member; the loop is the same 200 Hz controller
-and simulated crane that ``motionlib execute`` runs (:func:`motionlib.runtime.execute.prepare_run`).
+and simulated crane that ``motionlib execute`` runs (:func:`motionlib.sim.execute.prepare_run`).
 
 The loading cycle itself is the experiment's :class:`~motionlib.experiment.task.LoadingTask`;
 this module only lays the site out as a :class:`~motionlib.experiment.scenario.Scenario`.
@@ -28,15 +28,15 @@ import numpy as np
 
 from ..analysis.recording import GrappleEvent, Recording
 from ..checks import as_vec3, check_int
+from ..control.control_types import Mode
+from ..control.runlog import RunLog
 from ..errors import InputError
 from ..model.kinematics import Crane
 from ..model.scene import Region, Scene
 from ..planning.planner import PlanOptions, plan
 from ..planning.trajectory import Trajectory
-from ..runtime.control_types import Mode
-from ..runtime.execute import ExecuteOptions, prepare_run
-from ..runtime.loop import run_closed_loop
-from ..runtime.runlog import RunLog
+from ..sim.execute import ExecuteOptions, prepare_run
+from ..sim.loop import run_closed_loop
 from .panel import panel_operator
 from .scenario import Log, Scenario, ScenarioOptions
 from .task import LoadingTask

@@ -512,7 +512,7 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
               f"fall from 0.9 to 0.1 (0 for an abort); takeover: the median distance of the tip from the "
               f"automation's target point when the operator took over the running motion, and how many "
               f"takeovers each trigger made (distance, or time-to-arrival: the experts' distrust, "
-              f"`motionlib.runtime.operators`).", ""]
+              f"`motionlib.sim.operators`).", ""]
     rows = []
     for m in modes:
         for g in ("all", *GROUPS):

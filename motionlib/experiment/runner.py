@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..control.control_types import Mode
 from ..errors import ExecutionError, InputError
 from ..library.build import build_library, default_workers, exit_with_parent, library_is_current, parts_dir_for
 from ..library.spec import LibrarySpec
 from ..progress import Progress, make_progress
-from ..runtime.control_types import Mode
 from .panel import PANEL, panel_operator
 from .report import write_outputs
 from .series import ExperimentContext, RunOptions, SeriesResult, run_series

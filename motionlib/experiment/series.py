@@ -10,10 +10,10 @@ works on, not obstacles to keep away from (the wall and the stakes are).
 over the target area (the scenario's start configuration), a :class:`SharedController` in
 the mode (default parameters except, as 000 ran its experiment, no command ramp and no
 obstacle guard: :class:`RunOptions`), the simulated crane
-(:class:`~motionlib.runtime.plant.SimulatedCrane`, default parameters: second-order hydraulic
+(:class:`~motionlib.sim.plant.SimulatedCrane`, default parameters: second-order hydraulic
 joints and the shared pump) and a
 :class:`~motionlib.experiment.task.LoadingTask` run in
-:func:`~motionlib.runtime.loop.run_closed_loop` until every log is released and the tip has settled
+:func:`~motionlib.sim.loop.run_closed_loop` until every log is released and the tip has settled
 (or the time limit). The 200 Hz log is then reduced in the worker to
 
 * one :class:`CycleRecord` per completed work cycle: cycle time, the four subtask times
@@ -43,16 +43,16 @@ from typing import Any
 
 import numpy as np
 
+from ..control.control_types import ControllerParams, Mode
+from ..control.metrics import FilterOptions
+from ..control.runlog import RunLog
 from ..errors import InputError, MotionlibError
 from ..library.selection import SelectionStatus
 from ..library.store import Library
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
-from ..runtime.control_types import ControllerParams, Mode
-from ..runtime.execute import ExecuteOptions, prepare_run
-from ..runtime.loop import run_closed_loop
-from ..runtime.metrics import FilterOptions
-from ..runtime.runlog import RunLog
+from ..sim.execute import ExecuteOptions, prepare_run
+from ..sim.loop import run_closed_loop
 from .measures import Signals
 from .panel import panel_operator
 from .scenario import Scenario, ScenarioOptions

@@ -1,9 +1,9 @@
 """One test series of the log-loading task as an operator of the closed loop (000 section 3.3).
 
-:class:`LoadingTask` has the operator interface of :mod:`motionlib.runtime.operators`
+:class:`LoadingTask` has the operator interface of :mod:`motionlib.sim.operators`
 (``input(obs)`` once per control step, ``done(obs)``), so one call of
-:func:`motionlib.runtime.loop.run_closed_loop` runs a whole series. It is the operator's plan of the
-series; the hands are a :class:`~motionlib.runtime.operators.SimulatedOperator` per manual phase.
+:func:`motionlib.sim.loop.run_closed_loop` runs a whole series. It is the operator's plan of the
+series; the hands are a :class:`~motionlib.sim.operators.SimulatedOperator` per manual phase.
 Each work cycle (one log, in the scenario's order):
 
 1. **go out**: after the operator's reaction time, in traded and shared modes the operator
@@ -37,11 +37,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from ..control.control_types import Mode, OperatorInput
+from ..control.controller import SharedController
 from ..errors import InputError
 from ..planning.trajectory import Trajectory
-from ..runtime.control_types import Mode, OperatorInput
-from ..runtime.controller import SharedController
-from ..runtime.operators import FastPlan, Observation, SimulatedOperator
+from ..sim.operators import FastPlan, Observation, SimulatedOperator
 from .panel import PanelOperator, phase_seed
 from .scenario import Log, Scenario
 
@@ -154,7 +154,7 @@ class LoadingTask:
         return self._phase == "finished"
 
     def fast_plan(self) -> FastPlan:
-        """How the compiled closed loop may step the task (:class:`~motionlib.runtime.operators.FastPlan`).
+        """How the compiled closed loop may step the task (:class:`~motionlib.sim.operators.FastPlan`).
 
         The hands' model runs compiled; Python takes the step at the end of a wait or dwell, when the
         hands' phase changes (takeover, done) and, once the hands are done, when the automated motion

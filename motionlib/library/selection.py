@@ -518,7 +518,7 @@ class SelectionIndex:
             Number of ranked entries to return (>= 1).
         covariance : array_like, shape (3, 3), optional
             ``robust`` only: the covariance (m^2) of the target estimate's error, ``p_true ~ N(p_est,
-            covariance)``, e.g. from a gaze model (:mod:`motionlib.runtime.gaze`); replaces
+            covariance)``, e.g. from a gaze model (:mod:`motionlib.control.gaze`); replaces
             ``sigma_m^2 I``. Symmetric and positive semi-definite.
 
         Returns

@@ -5,7 +5,7 @@ The same formulas as :meth:`motionlib.model.kinematics.Crane.fk` and
 on floats without input checks or arrays: numpy's per-call overhead alone exceeds the controller's
 step budget. :func:`tip_point` and :func:`tip_point_jacobian` are called from Python (about 0.3
 microseconds each) and from the simulated crane's compiled substep loop
-(:mod:`motionlib.runtime.plant`). The tests check them against the array version.
+(:mod:`motionlib.sim.plant`). The tests check them against the array version.
 
 The crane's geometry ``g`` is a sequence of 5 floats (m): boom pivot offset from the slewing axis,
 column height (boom pivot above the ground), boom length, jib length, telescope offset

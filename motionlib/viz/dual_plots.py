@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..runtime.dual import DualResult
+from ..sim.dual import DualResult
 from .figures import new_figure, save_figure
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from ..fileio import atomic_output
-from ..runtime.dual import DualResult
+from ..sim.dual import DualResult
 from .meshes import CapsuleMesh, box_mesh
 from .viewer import (
     ARM_COLOUR,

@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..control.metrics import filtered_derivatives
 from ..planning.spline import TipSpline
-from ..runtime.execute import RunResult
-from ..runtime.metrics import filtered_derivatives
+from ..sim.execute import RunResult
 from .figures import new_figure, save_figure
 
 #: Events drawn as vertical lines in the time series.

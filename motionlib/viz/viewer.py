@@ -37,6 +37,8 @@ import numpy as np
 import plotly.graph_objects as go
 
 from ..checks import check_scalar, short
+from ..control.control_types import Authority
+from ..control.runlog import RUNLOG_SCHEMA, read_runlog
 from ..errors import InputError, LibraryFileError
 from ..fileio import atomic_output, hdf5_errors, open_sealed, path_exists, read_array, verify_sealed
 from ..library.store import LIBRARY_SCHEMA, Library, entry_id
@@ -44,8 +46,6 @@ from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import MAX_SAMPLES, TRAJECTORY_SCHEMA, Trajectory, check_trajectory, read_trajectory
-from ..runtime.control_types import Authority
-from ..runtime.runlog import RUNLOG_SCHEMA, read_runlog
 from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
 
 # Colours (tests/test_viewer.py finds the arm in screenshots by ARM_COLOUR's hue).
@@ -549,7 +549,7 @@ def runlog_figure(
     crane : Crane
     scene : Scene
     log : dict
-        :func:`motionlib.runtime.runlog.read_runlog` output: ``t`` (N,) s, ``q`` (N, 4),
+        :func:`motionlib.control.runlog.read_runlog` output: ``t`` (N,) s, ``q`` (N, 4),
         ``c_a`` (N,), ``authority`` (N,), ``events``, ``attrs``; ``rotator`` (N, 3) when the crane has
         a grapple rotator (the log is drawn along its yaw).
     planned_path : ndarray, shape (M, 3), or None

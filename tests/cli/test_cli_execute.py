@@ -10,11 +10,11 @@ import pytest
 from click.testing import CliRunner
 from motionlib_cli.main import cli
 
+from motionlib.control.runlog import read_runlog
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
-from motionlib.runtime.runlog import read_runlog
 
 JSON_KEYS = (
     "cycle_time_s", "final_error_m", "total_jerk", "peak_acceleration_m_s2", "max_deviation_m", "handover_time_s",

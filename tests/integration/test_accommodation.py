@@ -7,19 +7,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionlib.control.accommodation import AccommodationOptions, AccommodationSource, accommodation_source
+from motionlib.control.control_types import OperatorInput
+from motionlib.control.controller import SharedController
+from motionlib.control.frames_source import FrameSource
+from motionlib.control.sources import CartesianJoystick
 from motionlib.errors import InputError
 from motionlib.model.frames import SLEW_CRF, mrf_position, standard_mrfs
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.runtime.accommodation import AccommodationOptions, AccommodationSource, accommodation_source
-from motionlib.runtime.contact import ContactParams, penalty_force
-from motionlib.runtime.control_types import OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.execute import ExecuteOptions, execute
-from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.operators import ScriptedStick
-from motionlib.runtime.plant import SimParams, SimulatedCrane
-from motionlib.runtime.sources import CartesianJoystick
+from motionlib.sim.contact import ContactParams, penalty_force
+from motionlib.sim.execute import ExecuteOptions, execute
+from motionlib.sim.operators import ScriptedStick
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 ROOT = Path(__file__).resolve().parents[2]
 DT = 0.005

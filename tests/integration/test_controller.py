@@ -8,21 +8,21 @@ import math
 import numpy as np
 import pytest
 
+from motionlib.control.command import limit_weights
+from motionlib.control.control_types import Authority, ControllerParams, CraneState, Flag, Mode, OperatorInput
+from motionlib.control.controller import SharedController
+from motionlib.control.metrics import path_deviation
+from motionlib.control.resolved_rate import joint_limit_weights, resolve_rate, resolve_rate_fast
+from motionlib.control.sources import CartesianJoystick, JointJoystick, RateSource
 from motionlib.errors import InputError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions
 from motionlib.planning.spline import TipSpline
-from motionlib.runtime.command import limit_weights
-from motionlib.runtime.control_types import Authority, ControllerParams, CraneState, Flag, Mode, OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.loop import LoopOptions, run_closed_loop
-from motionlib.runtime.metrics import path_deviation
-from motionlib.runtime.operators import PassiveOperator
-from motionlib.runtime.plant import SimParams, SimulatedCrane
-from motionlib.runtime.resolved_rate import joint_limit_weights, resolve_rate, resolve_rate_fast
-from motionlib.runtime.sources import CartesianJoystick, JointJoystick, RateSource
+from motionlib.sim.loop import LoopOptions, run_closed_loop
+from motionlib.sim.operators import PassiveOperator
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 DT = 0.005
 Q_MID = (0.3, 0.5, -1.4, 0.4)

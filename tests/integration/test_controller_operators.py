@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionlib.control.control_types import Flag
+from motionlib.control.controller import SharedController
 from motionlib.errors import InputError, ModelFileError
-from motionlib.runtime.control_types import Flag
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.loop import LoopOptions, run_closed_loop
-from motionlib.runtime.operators import (
+from motionlib.sim.loop import LoopOptions, run_closed_loop
+from motionlib.sim.operators import (
     OPERATOR_PRESETS,
     MinimumJerkStick,
     Observation,
@@ -21,7 +21,7 @@ from motionlib.runtime.operators import (
     SimulatedOperator,
     make_operator,
 )
-from motionlib.runtime.plant import SimulatedCrane
+from motionlib.sim.plant import SimulatedCrane
 
 Q_MID = (0.3, 0.5, -1.4, 0.4)
 

@@ -15,12 +15,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis.stateful import RuleBasedStateMachine, initialize, invariant, rule
 
+from motionlib.control.control_types import CraneState, Flag, OperatorInput
+from motionlib.control.controller import SharedController
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
-from motionlib.runtime.control_types import CraneState, Flag, OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 DT = 0.005
 EPS = 1e-12

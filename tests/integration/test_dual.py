@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 from motionlib import DualOptions, DualScenario, DualStatus, execute_dual
+from motionlib.control.payload_command import TwistSegment
 from motionlib.errors import ExecutionError, ModelFileError
-from motionlib.runtime.payload import TwistSegment
-from motionlib.runtime.plant import SimParams
+from motionlib.sim.plant import SimParams
 
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "dual-lab.yaml"
 
@@ -75,7 +75,7 @@ def test_a_base_heading_error_is_absorbed_too(scenario):
     """Crane B's base turned by 0.01 rad (0.57 deg) from its calibration instead of displaced: its grasp point
     starts 2.5 m x 0.01 off, and its rates are turned by 0.01 rad while the log moves. Accommodation keeps the
     internal force under the bound; without it the bound is exceeded."""
-    from motionlib.runtime.payload_source import BasePose
+    from motionlib.control.payload_source import BasePose
 
     turned = replace(scenario, cranes=(scenario.cranes[0], replace(scenario.cranes[1], error=BasePose(yaw=0.01))))
     on = execute_dual(turned, DualOptions())

@@ -19,6 +19,7 @@ import pytest
 from click.testing import CliRunner
 from motionlib_cli.main import cli
 
+from motionlib.control.controller import SharedController
 from motionlib.errors import InputError
 from motionlib.experiment import (
     PANEL,
@@ -42,8 +43,7 @@ from motionlib.experiment.stats import (
     transition_table,
 )
 from motionlib.model.scene import Scene
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
+from motionlib.sim.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "obstacles" / "log-loading.yaml"
@@ -432,12 +432,12 @@ def test_takeover_is_recorded_where_the_operator_took_over(tiny):
 @pytest.mark.parametrize(("name", "mode"), [("O1", "M5"), ("O5", "M3"), ("O2", "M4")])
 def test_series_run_compiled_as_in_python(tiny, name, mode):
     """A whole series (the task's waits, grabs and dwells, takeovers, aborts, library motions started
-    mid-run) gives the same records in the compiled loop (motionlib.runtime.fast_loop) as stepped in
+    mid-run) gives the same records in the compiled loop (motionlib.sim.fast_loop) as stepped in
     Python, to the last bit."""
     from dataclasses import replace
 
     from motionlib.experiment.series import ExperimentContext, run_series
-    from motionlib.runtime.loop import LoopOptions
+    from motionlib.sim.loop import LoopOptions
 
     _, lib = tiny
     results = []

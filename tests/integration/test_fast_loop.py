@@ -1,4 +1,4 @@
-"""The compiled closed loop (motionlib.runtime.fast_loop) against the same loop stepped in Python.
+"""The compiled closed loop (motionlib.sim.fast_loop) against the same loop stepped in Python.
 
 The reference is the per-step objects driven by Python (``LoopOptions(compiled=False)``): the
 controller's ``step``, the operator's ``input`` and the simulated crane's ``advance``. The compiled
@@ -15,12 +15,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from motionlib import Crane, ExecuteOptions, PlanOptions, Scene, plan
-from motionlib.runtime import fast_loop
-from motionlib.runtime.control_types import ControllerParams
-from motionlib.runtime.execute import prepare_run
-from motionlib.runtime.loop import LoopOptions, run_closed_loop
-from motionlib.runtime.operators import PassiveOperator, ScriptedStick, SimulatedOperator
-from motionlib.runtime.plant import SimParams
+from motionlib.control.control_types import ControllerParams
+from motionlib.sim import fast_loop
+from motionlib.sim.execute import prepare_run
+from motionlib.sim.loop import LoopOptions, run_closed_loop
+from motionlib.sim.operators import PassiveOperator, ScriptedStick, SimulatedOperator
+from motionlib.sim.plant import SimParams
 
 SCENE = "obstacles/log-loading.yaml"
 
@@ -138,7 +138,8 @@ def test_runs_the_compiled_loop_cannot_take_stay_in_python(setting, tmp_path):
 
 def test_array_layouts_match_their_names():
     """Every named offset into the compiled code's arrays points at the entry of that name."""
-    from motionlib.runtime import command, operator_model, plant
+    from motionlib.control import command
+    from motionlib.sim import operator_model, plant
 
     layouts = [
         (command.COMMAND_STATE, {"cmd1": command.S_CMD, "automation_active": command.S_AUTO,

@@ -7,12 +7,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from motionlib.control.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
 from motionlib.experiment.open_loop_study import OpenLoopStudyOptions, open_loop_study
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import PlanOptions, plan
-from motionlib.runtime.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 
 @pytest.fixture(scope="module")

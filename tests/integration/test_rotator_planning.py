@@ -25,8 +25,8 @@ from motionlib.model.limits import limits_for, verify_samples
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
 from motionlib.planning.rotator import BUNK_AXIS_YAW
-from motionlib.runtime.execute import prepare_run
-from motionlib.runtime.operators import Observation, PassiveOperator
+from motionlib.sim.execute import prepare_run
+from motionlib.sim.operators import Observation, PassiveOperator
 
 ROOT = Path(__file__).resolve().parents[2]
 STAKE_X = (2.4, 3.0, 3.6)  # three pairs of stakes along the bunk, as on a forwarder's load bunk
@@ -213,8 +213,8 @@ def test_forwarder_log_from_a_pile_beside_the_strip_road_lies_along_the_bunk():
 
 def test_execute_records_the_rotator_in_the_run_log(rc, bunk_scene, plans, tmp_path):
     """``execute`` (what ``motionlib execute`` runs) turns the log with the plan and the run log records it."""
-    from motionlib.runtime.execute import ExecuteOptions, execute
-    from motionlib.runtime.runlog import read_runlog
+    from motionlib.control.runlog import read_runlog
+    from motionlib.sim.execute import ExecuteOptions, execute
 
     traj = plans["pickup-b"].trajectory
     run = execute(traj, rc, bunk_scene, mode="M5", options=ExecuteOptions(time_limit_s=traj.duration_s + 4.0))

@@ -26,7 +26,7 @@ def test_fixed_sample_of_operator_sequences_violates_nothing():
 
 def test_the_checks_see_a_violation(monkeypatch):
     """A controller whose command jumps past the limits is counted: the checks are not vacuous."""
-    from motionlib.runtime.controller import SharedController
+    from motionlib.control.controller import SharedController
 
     step = SharedController.step
     monkeypatch.setattr(SharedController, "step", lambda self, state, inp: np.asarray(step(self, state, inp)) + 10)

@@ -26,9 +26,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from motionlib.control.runlog import RUNLOG_SCHEMA, read_runlog
 from motionlib.errors import LibraryFileError
 from motionlib.fileio import SEAL_MAGIC, SEAL_SIZE, open_sealed, seal_hdf5, sealed_hdf5_output, verify_sealed
-from motionlib.runtime.runlog import RUNLOG_SCHEMA, read_runlog
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "benchmarks"))

@@ -13,16 +13,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionlib.control.control_types import ControllerParams, OperatorInput
+from motionlib.control.controller import SharedController
+from motionlib.control.frames_source import FrameSource
+from motionlib.control.sources import CartesianJoystick
 from motionlib.errors import InputError
 from motionlib.model.frames import SLEW_CRF, mrf_position, standard_mrfs
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.runtime.control_types import ControllerParams, OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.execute import ExecuteOptions, execute
-from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.plant import SimParams, SimulatedCrane
-from motionlib.runtime.sources import CartesianJoystick
+from motionlib.sim.execute import ExecuteOptions, execute
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 ROOT = Path(__file__).resolve().parents[2]
 SLEW0 = 0.8  # rad added to the start's slew

@@ -30,6 +30,8 @@ from motionlib_cli.main import cli
 from PIL import Image
 from playwright.sync_api import sync_playwright
 
+from motionlib.control.control_types import Authority
+from motionlib.control.runlog import read_runlog
 from motionlib.errors import LibraryFileError
 from motionlib.fileio import seal_hdf5, sealed_hdf5_output
 from motionlib.library.store import Library
@@ -37,8 +39,6 @@ from motionlib.model.embedded import embedded_models
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Obstacle
 from motionlib.planning.trajectory import load_plan
-from motionlib.runtime.control_types import Authority
-from motionlib.runtime.runlog import read_runlog
 from motionlib.viz.meshes import CapsuleMesh, box_mesh, hull_mesh, local_mesh, obstacle_mesh
 from motionlib.viz.viewer import (
     ARM_COLOUR,

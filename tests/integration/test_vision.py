@@ -7,14 +7,15 @@ import math
 import numpy as np
 import pytest
 
+from motionlib.control.resolved_rate import resolve_rate_fast
+from motionlib.control.sources import RateSource, StepContext
+from motionlib.control.vision import VisionSource, lens_rotation
 from motionlib.errors import InputError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.frames import mrf_position
 from motionlib.model.kinematics import Crane
-from motionlib.runtime.plant import SimParams, SimulatedCrane
-from motionlib.runtime.resolved_rate import resolve_rate_fast
-from motionlib.runtime.sources import RateSource, StepContext
-from motionlib.runtime.vision import CameraParams, SimulatedCamera, VisionSource, lens_rotation
+from motionlib.sim.camera import CameraParams, SimulatedCamera
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 DT = 0.005
 TARGET = (2.6, 0.9, 0.1)  # grasp point of a log on the lab floor (m)

@@ -14,20 +14,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from motionlib.control.accommodation import AccommodationSource
+from motionlib.control.control_types import ControllerParams, CraneState, OperatorInput
+from motionlib.control.controller import SharedController
+from motionlib.control.resolved_rate import resolve_rate
+from motionlib.control.sources import CartesianJoystick, PositionSource, StepContext
+from motionlib.control.vision import VisionSource, lens_rotation
 from motionlib.errors import InputError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.runtime.accommodation import AccommodationSource
-from motionlib.runtime.control_types import ControllerParams, CraneState, OperatorInput
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.execute import ExecuteOptions, execute
-from motionlib.runtime.loop import run_closed_loop
-from motionlib.runtime.operators import PassiveOperator
-from motionlib.runtime.plant import SimulatedCrane
-from motionlib.runtime.resolved_rate import resolve_rate
-from motionlib.runtime.sources import CartesianJoystick, PositionSource, StepContext
-from motionlib.runtime.vision import CameraParams, SimulatedCamera, VisionOptions, VisionSource, lens_rotation
+from motionlib.sim.camera import CameraParams, SimulatedCamera, VisionOptions
+from motionlib.sim.execute import ExecuteOptions, execute
+from motionlib.sim.loop import run_closed_loop
+from motionlib.sim.operators import PassiveOperator
+from motionlib.sim.plant import SimulatedCrane
 
 ROOT = Path(__file__).resolve().parents[2]
 TARGET = (2.6, 0.9, 0.1)  # grasp point of a log on the lab floor (m)

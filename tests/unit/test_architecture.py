@@ -5,6 +5,7 @@ from __future__ import annotations
 import pydoc
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,12 @@ import pytest
 import motionlib
 
 ROOT = Path(__file__).resolve().parents[2]
+#: The single-package layers of pyproject's import-linter contract, top to bottom.
+_LAYERS = tuple(
+    layer
+    for layer in tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"][0]["layers"]
+    if "|" not in layer
+)
 JOBS = ("plan", "build_library", "execute", "execute_dual", "log_loading_experiment", "write_view")
 
 
@@ -23,16 +30,44 @@ def test_layers_never_import_upward():
     assert "1 kept, 0 broken" in out.stdout
 
 
-def test_a_layer_violation_is_caught(tmp_path):
-    """The contract can fail: a model module that imports the runtime breaks it."""
+@pytest.mark.parametrize(
+    ("importer", "imported"),
+    [
+        ("motionlib.model.kinematics", "motionlib.control.controller"),
+        ("motionlib.control.controller", "motionlib.sim.plant"),
+    ],
+)
+def test_a_layer_violation_is_caught(importer, imported):
+    """The contract can fail: a model module that imports the controller, or the controller the simulator."""
     import grimp
 
     graph = grimp.build_graph("motionlib", "motionlib_cli", cache_dir=None)
-    graph.add_import(importer="motionlib.model.kinematics", imported="motionlib.runtime.controller")
-    illegal = graph.find_illegal_dependencies_for_layers(
-        layers=("motionlib.runtime", "motionlib.model"), containers=set()
-    )
+    assert not graph.find_illegal_dependencies_for_layers(layers=_LAYERS, containers=set())
+    graph.add_import(importer=importer, imported=imported)
+    illegal = graph.find_illegal_dependencies_for_layers(layers=_LAYERS, containers=set())
     assert illegal, "the layers contract did not notice an upward import"
+
+
+def test_control_runs_without_the_simulator():
+    """Every module of ``motionlib.control`` imports in a fresh interpreter without loading the simulator.
+
+    The controller is what a real machine runs (issue 21): ``motionlib.sim``, ``experiment``, ``viz``
+    and ``analysis`` stay out of its process.
+    """
+    modules = sorted(p.stem for p in (ROOT / "motionlib" / "control").glob("*.py") if p.stem != "__init__")
+    assert {"controller", "mixer", "tracker", "runlog"} <= set(modules)
+    code = (
+        "import importlib, sys\n"
+        f"for m in {modules!r}:\n"
+        "    importlib.import_module('motionlib.control.' + m)\n"
+        "bad = ('motionlib.sim', 'motionlib.experiment', 'motionlib.viz', 'motionlib.analysis')\n"
+        "print(sorted(m for m in sys.modules if m.startswith(bad)))\n"
+        "print(sum(m.startswith('motionlib.control.') for m in sys.modules))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    loaded, n_control = out.stdout.strip().splitlines()
+    assert loaded == "[]"
+    assert int(n_control) == len(modules)
 
 
 @pytest.mark.slow

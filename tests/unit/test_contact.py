@@ -1,4 +1,4 @@
-"""The simulated crane's contact with the ground and obstacles (motionlib.runtime.contact) against closed forms."""
+"""The simulated crane's contact with the ground and obstacles (motionlib.sim.contact) against closed forms."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import pytest
 
 from motionlib.errors import InputError
 from motionlib.model.scene import Obstacle
-from motionlib.runtime.contact import ContactParams, ContactSurfaces
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.contact import ContactParams, ContactSurfaces
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 Q0 = np.array([0.3, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
 DT = 0.005

@@ -20,19 +20,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
+from motionlib.control.controller import SharedController
+from motionlib.control.sources import JointJoystick, StepContext
 from motionlib.errors import InputError
 from motionlib.experiment.panel import PANEL, params_for_skill
 from motionlib.model.fast_kinematics import TipKinematics
-from motionlib.runtime.controller import SharedController
-from motionlib.runtime.operators import (
-    HABIT_PARAMETERS,
-    OPERATOR_PRESETS,
-    Observation,
-    SimulatedOperator,
-    takeover_tau_s,
-)
-from motionlib.runtime.plant import SimulatedCrane
-from motionlib.runtime.sources import JointJoystick, StepContext
+from motionlib.sim.operators import HABIT_PARAMETERS, OPERATOR_PRESETS, Observation, SimulatedOperator, takeover_tau_s
+from motionlib.sim.plant import SimulatedCrane
 
 DT = 0.005
 Q_MID = (0.3, 0.5, -1.4, 0.4)

@@ -11,6 +11,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from motionlib.control.frames_source import FrameSource
+from motionlib.control.sources import CartesianJoystick, PositionSource, StepContext
 from motionlib.errors import ModelFileError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.frames import (
@@ -26,8 +28,6 @@ from motionlib.model.frames import (
 )
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.runtime.frames_source import FrameSource
-from motionlib.runtime.sources import CartesianJoystick, PositionSource, StepContext
 
 H = 1e-3  # finite-difference step along the joint velocity (s)
 LAB_KIN = TipKinematics(Crane.load("lab"))

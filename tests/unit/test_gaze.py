@@ -9,10 +9,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motionlib.control.gaze import HeadGazeModel, estimate_target, gaze_angles, gaze_point
 from motionlib.errors import InputError
 from motionlib.experiment.gaze_study import GazeOperator, gaze_selection_study
 from motionlib.library.selection import SelectionIndex
-from motionlib.runtime.gaze import HeadGazeModel, estimate_target, gaze_angles, gaze_point
 
 EYE = np.array([-1.6, 0.0, 2.6])  # a forwarder operator's eye in the cab (assumption)
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 from scipy import signal
 
-from motionlib.runtime.hydraulics import natural_frequency_rad_s
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.hydraulics import natural_frequency_rad_s
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 Q_MID = np.array([0.0, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
 H = 0.001

@@ -9,11 +9,11 @@ import h5py
 import numpy as np
 import pytest
 
+from motionlib.control.control_types import ControllerStatus, Event
+from motionlib.control.metrics import FilterOptions, filtered_derivatives, path_deviation, run_summary, smoothness
+from motionlib.control.runlog import COLUMNS, RunLog, read_runlog, tip_motion, write_runlog
 from motionlib.errors import InputError, LibraryFileError
 from motionlib.planning.spline import TipSpline
-from motionlib.runtime.control_types import ControllerStatus, Event
-from motionlib.runtime.metrics import FilterOptions, filtered_derivatives, path_deviation, run_summary, smoothness
-from motionlib.runtime.runlog import COLUMNS, RunLog, read_runlog, tip_motion, write_runlog
 
 FS = 200.0
 

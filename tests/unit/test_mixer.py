@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from motionlib.control.mixer import Mixer, MixerParams, ObstacleGuard
 from motionlib.errors import InputError
 from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
-from motionlib.runtime.mixer import Mixer, MixerParams, ObstacleGuard
 
 DT = 0.005
 FAR_FROM_END = 3.0  # m: outside the end weak zone

@@ -10,22 +10,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from motionlib.control.payload_command import TwistCommand, TwistSegment, grasp_velocity
+from motionlib.control.payload_source import BasePose, PayloadSource
+from motionlib.control.resolved_rate import resolve_rate
+from motionlib.control.sources import StepContext
 from motionlib.errors import InputError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.frames import PointFrame, mrf_position
-from motionlib.runtime.dual import grasp_frame, weight_shares
-from motionlib.runtime.payload import (
-    GripParams,
-    LogParams,
-    RigidLog,
-    TwistCommand,
-    TwistSegment,
-    grasp_velocity,
-    squeeze_force,
-)
-from motionlib.runtime.payload_source import BasePose, PayloadSource
-from motionlib.runtime.resolved_rate import resolve_rate
-from motionlib.runtime.sources import StepContext
+from motionlib.sim.dual import grasp_frame, weight_shares
+from motionlib.sim.payload import GripParams, LogParams, RigidLog, squeeze_force
 
 ROT0 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # log axis along world y
 SEGMENTS = (TwistSegment(0.5), TwistSegment(2.0, (0.1, -0.04, 0.08), (0.05, -0.1, 0.3)))

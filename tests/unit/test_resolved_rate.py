@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from motionlib.runtime.resolved_rate import joint_limit_weights, resolve_rate, weighted_pinv
+from motionlib.control.resolved_rate import joint_limit_weights, resolve_rate, weighted_pinv
 
 
 def _gamma(crane, q4: float) -> float:

@@ -27,7 +27,7 @@ from motionlib.model.limits import PumpFlowLimit, limits_for, verify_samples
 from motionlib.model.scene import Scene
 from motionlib.model.urdf import LINK_OF_FRAME, ROTATOR_LINKS, crane_to_urdf, hanging_rest
 from motionlib.planning.timing import time_scale
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 ROOT = Path(__file__).resolve().parents[2]
 ROTATOR_FILE = ROOT / "examples" / "lab-rotator.yaml"
@@ -361,8 +361,8 @@ def test_viewer_draws_the_log_along_its_yaw(rc):
 # ----------------------------------------------------------------------------- runtime: the rotator axis
 def _run_rotator_stick(rc, axis: float, seconds: float, rotator0: float, stale_after: float | None = None):
     """Closed loop of the controller and the plant with the operator's rotator axis held at ``axis``."""
-    from motionlib.runtime.control_types import OperatorInput
-    from motionlib.runtime.controller import SharedController
+    from motionlib.control.control_types import OperatorInput
+    from motionlib.control.controller import SharedController
 
     controller = SharedController(rc, "M4")
     sim = SimulatedCrane(rc, [0.0, 0.5, -1.4, 0.4], rotator0=rotator0)
@@ -397,7 +397,7 @@ def test_stale_operator_input_stops_the_rotator(rc):
 
 
 def test_the_rotator_channel_needs_a_rotator():
-    from motionlib.runtime.rotator import RotatorChannel
+    from motionlib.control.rotator import RotatorChannel
 
     with pytest.raises(InputError, match="no rotator"):
         RotatorChannel(Crane.load("lab"), 0.005)

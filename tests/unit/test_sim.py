@@ -10,7 +10,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from motionlib.errors import InputError
-from motionlib.runtime.plant import SimParams, SimulatedCrane
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 Q_MID = np.array([0.0, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
 DT = 0.005

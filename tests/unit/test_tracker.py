@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from motionlib.control.tracker import PathTracker, TrackerParams
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
 from motionlib.planning.spline import TipSpline
-from motionlib.runtime.tracker import PathTracker, TrackerParams
 
 SCENE = "obstacles/log-loading.yaml"
 

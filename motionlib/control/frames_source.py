@@ -1,6 +1,6 @@
 """Any Cartesian source commanding an MRF in a CRF (001 section 2, eq. 1).
 
-:class:`FrameSource` wraps a Cartesian :class:`~motionlib.runtime.sources.RateSource` (a joystick,
+:class:`FrameSource` wraps a Cartesian :class:`~motionlib.control.sources.RateSource` (a joystick,
 the position source, the vision source, ...) so that its rate moves a chosen MRF (a point on the
 grapple or the carried log, :mod:`motionlib.model.frames`) and is expressed in a chosen CRF (the
 base frame, the slew-following frame or a view frame). Each step it
@@ -16,7 +16,7 @@ rotator's measured angle and rate from the step's context); the ``slew`` CRF kee
 heading.
 
 It plugs into the summing junction like any source
-(:meth:`motionlib.runtime.controller.SharedController.add_source`, or as the controller's
+(:meth:`motionlib.control.controller.SharedController.add_source`, or as the controller's
 ``joystick``); the wrapped source keeps its role, gains and enable switch.
 """
 

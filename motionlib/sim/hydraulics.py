@@ -8,9 +8,9 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
 1. **valve** (spool lag): ``tau_v x' = u - x``, integrated exactly for constant ``u``
    (``x += (u - x)(1 - exp(-h / tau_v))``); ``u`` has already passed the dead band and the
    direction-dependent flow saturation ``qd_min <= u <= qd_max`` (see
-   :class:`~motionlib.runtime.plant.SimulatedCrane`);
+   :class:`~motionlib.sim.plant.SimulatedCrane`);
 2. **pump**: the valves' demands share the pump's flow, ``y = k x`` with
-   ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.runtime.pump.flow_share`);
+   ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.sim.pump.flow_share`);
 3. **actuator** (oil compliance, second order): the flow ``y`` drives the joint through the
    oil's compliance, a mass-spring system with natural frequency ``omega`` and damping ratio
    ``zeta``. With the load's generalised force per unit inertia ``f`` (the grapple's

@@ -1,9 +1,9 @@
-"""The simulated operator's per-step law, compiled (:class:`~motionlib.runtime.operators.SimulatedOperator`).
+"""The simulated operator's per-step law, compiled (:class:`~motionlib.sim.operators.SimulatedOperator`).
 
-The model is described in :mod:`motionlib.runtime.operators` ("Simulated operators", "Expert
+The model is described in :mod:`motionlib.sim.operators` ("Simulated operators", "Expert
 habits"); this module holds its arithmetic as numba-compiled functions on the operator's arrays,
-so that :meth:`SimulatedOperator.input <motionlib.runtime.operators.SimulatedOperator.input>` and
-the compiled closed loop (:mod:`motionlib.runtime.fast_loop`) run the same code:
+so that :meth:`SimulatedOperator.input <motionlib.sim.operators.SimulatedOperator.input>` and
+the compiled closed loop (:mod:`motionlib.sim.fast_loop`) run the same code:
 
 * :func:`stick_state` / :func:`stick_retarget`: the minimum-jerk stick (Flash & Hogan 1985) on a
   stick array (:data:`STICK`);
@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import njit
 
+from ..control.sources import cartesian_axes, joint_axes
 from ..model.fast_kinematics import tip_point_jacobian
-from .sources import cartesian_axes, joint_axes
 
 #: Scalar constants of an operator, at the start of its ``consts`` array.
 OPERATOR_CONSTS: tuple[str, ...] = (

@@ -36,7 +36,7 @@ from ..planning.trajectory import Trajectory
 
 #: Seconds left out at the end of an unsettled run's smoothness measures (filter edge effects).
 TRIM_UNSETTLED_S = 0.25
-#: Authority codes (motionlib.runtime.controller.Authority) during which an automated motion is in control.
+#: Authority codes (motionlib.control.controller.Authority) during which an automated motion is in control.
 _AUTOMATED = (1, 2)
 
 
@@ -232,7 +232,7 @@ def run_summary(
     Parameters
     ----------
     arrays : dict
-        :meth:`motionlib.runtime.runlog.RunLog.arrays` with ``tip_p`` (a crane was given).
+        :meth:`motionlib.control.runlog.RunLog.arrays` with ``tip_p`` (a crane was given).
     events : list
         Events with ``t`` and ``name``.
     target_p : array_like, shape (3,)

@@ -1,16 +1,16 @@
 """The shared controller's command law, compiled: mode logic, resolved rate and limits (000 sections 2.2-2.4).
 
-:func:`command_law` is steps 3-5 of :class:`~motionlib.runtime.controller.SharedController`'s
+:func:`command_law` is steps 3-5 of :class:`~motionlib.control.controller.SharedController`'s
 step (its module docstring): from the summed source rates of one step to the joint velocity
 command, written into the controller's state array. It runs compiled (numba), called by
-:meth:`SharedController.step <motionlib.runtime.controller.SharedController.step>` and by the
-compiled closed loop (:mod:`motionlib.runtime.fast_loop`), so both run the same law.
+:meth:`SharedController.step <motionlib.control.controller.SharedController.step>` and by the
+compiled closed loop (:mod:`motionlib.sim.fast_loop`), so both run the same law.
 
 Arrays
 ------
 ``consts`` (:func:`command_consts`): the controller's constant vectors and numbers, at the offsets
 ``K_*`` below. ``state`` (:data:`COMMAND_STATE`): the previous command, whether an automated motion
-is in control, and the status of the last step (:class:`~motionlib.runtime.control_types.ControllerStatus`).
+is in control, and the status of the last step (:class:`~motionlib.control.control_types.ControllerStatus`).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ CONST_SCALARS: tuple[str, ...] = (
 (K_LAG, K_FLOOR, K_RAISE, K_LOWER, K_CENTER, K_SWING, K_SWAY_MAX, K_SIGMA_THR, K_DAMP_MAX, K_DT, K_TRADED,
  K_JOINT_OP) = range(76, 88)
 
-# flags (motionlib.runtime.control_types.Flag) and authorities (Authority) as plain ints for compiled code
+# flags (motionlib.control.control_types.Flag) and authorities (Authority) as plain ints for compiled code
 F_VEL, F_ACC, F_POS, F_GUARD, F_DAMPED = 16, 32, 64, 128, 256
 A_MANUAL, A_TRADED, A_SHARED, A_STOPPED = 0, 1, 2, 3
 #: Codes of the events that end an automated motion (:func:`command_law`, the compiled loop).
@@ -97,7 +97,7 @@ def swing_damping_rate(c, swing_x: float, swing_y: float) -> tuple[float, float,
 
 @njit(cache=True)
 def limit_weights(c, q, qo, has_qo: bool) -> tuple[float, float, float, float]:
-    """Joint-limit weights (the law of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`) at ``q`` (4,).
+    """Joint-limit weights (the law of :func:`~motionlib.control.resolved_rate.joint_limit_weights`) at ``q`` (4,).
 
     Raised for the joints the operator moves (``qo`` (4,), joint operation; 000 section 2.4) and
     lowered for the others.
@@ -241,7 +241,7 @@ def command_law(c, state, mixer_consts, mixer_state, jac, q, qd, swing_x: float,
     state : ndarray, shape (17,)
         :data:`COMMAND_STATE`; ``state[cmd]`` holds the previous command on entry.
     mixer_consts, mixer_state : ndarray
-        The mixer's arrays (:class:`~motionlib.runtime.mixer.Mixer`).
+        The mixer's arrays (:class:`~motionlib.control.mixer.Mixer`).
     jac : sequence of 12 float
         Tip Jacobian (3, 4) row by row.
     q, qd : sequence of 4 float

@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..checks import COORDINATE_M, Plausible
+from ..control.payload_command import TwistSegment, Vec3
+from ..control.payload_source import BasePose
 from ..errors import InputError, ModelFileError
 from ..model.kinematics import Crane
 from ..schema import Section, load_yaml
-from .payload import GripParams, LogParams, TwistSegment, Vec3, check_stable
-from .payload_source import BasePose
+from .payload import GripParams, LogParams, check_stable
 
 _ANGLE = Plausible(-2 * math.pi, 2 * math.pi, -1e3, 1e3, "rad")
 _ERROR_M = Plausible(-0.5, 0.5, -10.0, 10.0, "m")  # a calibration error, not a different place

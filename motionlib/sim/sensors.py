@@ -5,9 +5,9 @@ camera image of the target, a force/torque reading; 001 sections 2.4-2.5) gets i
 *sensor*: any object with one method
 
 ``sense(sim) -> None``
-    Called by :func:`~motionlib.runtime.loop.run_closed_loop` (and so by
-    :func:`~motionlib.runtime.execute.execute`) once per control step with the simulated crane
-    (:class:`~motionlib.runtime.plant.SimulatedCrane`) at the step's time ``sim.t``, *before* the
+    Called by :func:`~motionlib.sim.loop.run_closed_loop` (and so by
+    :func:`~motionlib.sim.execute.execute`) once per control step with the simulated crane
+    (:class:`~motionlib.sim.plant.SimulatedCrane`) at the step's time ``sim.t``, *before* the
     operator samples its stick and the controller acts. It reads the plant's true state (``sim.t``,
     ``sim.q``, ``sim.tip``, ``sim.grapple``, ...) and keeps what it measured for its source; it must
     not change the plant.
@@ -16,8 +16,8 @@ On a real machine the same sources read real sensors; the hook is the simulation
 sensors are called in the order given. With no sensor the loop's step costs nothing more (one
 truth test of an empty tuple).
 
-Sensors: :class:`~motionlib.runtime.vision.SimulatedCamera` (the vision source's camera),
-:class:`~motionlib.runtime.accommodation.ForceSensor` (the plant's contact force for the accommodation).
+Sensors: :class:`~motionlib.sim.camera.SimulatedCamera` (the vision source's camera),
+:class:`~motionlib.sim.sensors.ForceSensor` (the plant's contact force for the accommodation).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from ..control.accommodation import AccommodationSource
 from ..errors import InputError
 
 if TYPE_CHECKING:
@@ -58,3 +59,16 @@ def sense_calls(sensors: Iterable[Sensor] | None) -> tuple[Callable[[SimulatedCr
             raise InputError(f"sensors[{i}]: expected an object with a sense(sim) method, got {type(s).__name__}")
         calls.append(fn)
     return tuple(calls)
+
+
+class ForceSensor:
+    """The force sensor above the grapple: each step, the plant's contact force goes to ``source``.
+
+    A sensor of the loop's hook (this module).
+    """
+
+    def __init__(self, source: AccommodationSource):
+        self.source = source
+
+    def sense(self, sim: SimulatedCrane) -> None:
+        self.source.sense(sim.contact_force)

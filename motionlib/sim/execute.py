@@ -1,11 +1,11 @@
 """One call that runs a trajectory in the shared-control loop on the simulated crane.
 
 :func:`execute` builds what a run needs and nothing else: the obstacle guard ``c_o``
-(optional), the :class:`~motionlib.runtime.controller.SharedController` in the chosen mode
+(optional), the :class:`~motionlib.control.controller.SharedController` in the chosen mode
 with the trajectory as its automated motion, the simulated crane
-(:class:`~motionlib.runtime.plant.SimulatedCrane`) at the start configuration, the operator
-model, and the run log; it runs :func:`~motionlib.runtime.loop.run_closed_loop` until the tip
-settles or the time limit, and measures the run (:func:`~motionlib.runtime.metrics.run_summary`).
+(:class:`~motionlib.sim.plant.SimulatedCrane`) at the start configuration, the operator
+model, and the run log; it runs :func:`~motionlib.sim.loop.run_closed_loop` until the tip
+settles or the time limit, and measures the run (:func:`~motionlib.control.metrics.run_summary`).
 ``motionlib execute``, notebook 03, the experiment's benchmark and the safety tests all call it.
 """
 
@@ -20,25 +20,26 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_scalar, check_vector
+from ..control.accommodation import AccommodationOptions, accommodation_source
+from ..control.control_types import ControllerParams, Mode
+from ..control.controller import SharedController
+from ..control.frames_source import stick_in_frames
+from ..control.metrics import RunSummary, run_summary
+from ..control.mixer import MixerParams, ObstacleGuard
+from ..control.runlog import RunLog, write_runlog
+from ..control.tracker import TrackerParams
+from ..control.vision import VisionSource
 from ..errors import ExecutionError, InputError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
-from .accommodation import AccommodationOptions, ForceSensor, accommodation_source
+from .camera import VisionOptions, tip_goal, vision_source
 from .contact import ContactParams
-from .control_types import ControllerParams, Mode
-from .controller import SharedController
-from .frames_source import stick_in_frames
 from .loop import LoopOptions, LoopResult, run_closed_loop
-from .metrics import RunSummary, run_summary
-from .mixer import MixerParams, ObstacleGuard
 from .operators import Operator, make_operator, operator_kind
 from .plant import SimParams, SimulatedCrane
-from .runlog import RunLog, write_runlog
-from .sensors import Sensor, sense_calls
-from .tracker import TrackerParams
-from .vision import VisionOptions, VisionSource, tip_goal, vision_source
+from .sensors import ForceSensor, Sensor, sense_calls
 
 
 @dataclass(frozen=True)
@@ -62,22 +63,22 @@ class ExecuteOptions:
     stick_mrf, stick_crf : str or None
         Cartesian modes (M4-M6): the operator's stick moves this MRF (a point of the grapple or
         the log), its axes along this CRF (001 section 2, eq. 1;
-        :func:`~motionlib.runtime.frames_source.stick_in_frames`). None, None: the tip, with the
+        :func:`~motionlib.control.frames_source.stick_in_frames`). None, None: the tip, with the
         cylindrical mapping in the base frame. The model operators aim the tip, so other frames
         take a stick script or the passive operator.
     accommodation : AccommodationOptions or None
-        The force-accommodation source (001 section 2.5, :func:`~motionlib.runtime.accommodation.accommodation_source`)
+        The force-accommodation source (001 section 2.5, :func:`~motionlib.control.accommodation.accommodation_source`)
         summed with the stick in every mode, reading the simulated crane's contact force through the
         loop's sensor hook; it turns on the plant's contact (the ground at the scene's ``ground_z``
         unless ``sim.contact`` gives one, and the scene's obstacles).
     vision : VisionOptions or None
         A camera on the grapple (or at the tip) and the vision source (001 section 2.4,
-        :func:`~motionlib.runtime.vision.vision_source`; its camera's seed is replaced by ``seed``),
+        :func:`~motionlib.sim.camera.vision_source`; its camera's seed is replaced by ``seed``),
         in the automation modes (M2, M3, M5, M6). With a trajectory it is summed with the path
         tracker in the automation's rate ``p_a`` while the motion is in control (001 section 2.6;
         competing goals are for the gains to arbitrate: a zero ``K_V`` disables an axis), the
         tracker's arrival ending the motion; without one it is the motion itself and ends on its
-        own arrival. The camera is fed through the loop's sensor hook (:mod:`motionlib.runtime.sensors`).
+        own arrival. The camera is fed through the loop's sensor hook (:mod:`motionlib.sim.sensors`).
     """
 
     seed: int = 0
@@ -231,7 +232,7 @@ def execute(
     operator : str, Path or Operator
         ``passive``, ``novice``, ``expert``, a stick script (.csv, docs/runtime.md), or an object
         with ``input(obs) -> OperatorInput`` and ``done(obs) -> bool``
-        (:mod:`motionlib.runtime.operators`).
+        (:mod:`motionlib.sim.operators`).
     target : array_like, shape (3,), optional
         The operator's target tip point (m); default the trajectory's end, or without one the
         vision source's goal for the tip (``options.vision``).
@@ -241,7 +242,7 @@ def execute(
     log_attrs : mapping, optional
         Extra attributes stored with the run log (e.g. the library and row it came from).
     sensors : sequence of Sensor, optional
-        More sensors for the loop's hook (objects with ``sense(sim)``, :mod:`motionlib.runtime.sensors`),
+        More sensors for the loop's hook (objects with ``sense(sim)``, :mod:`motionlib.sim.sensors`),
         called each step after the vision source's camera and the accommodation's force sensor.
 
     Returns

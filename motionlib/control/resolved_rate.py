@@ -165,7 +165,7 @@ def resolve_rate_fast(
 ) -> tuple[Vec4, float, float]:
     """``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (pd - J z)`` on floats (000 eq. 2, 001 eq. 7).
 
-    Equal to :func:`motionlib.runtime.resolved_rate.resolve_rate` (same damping law: ``lambda^2 =
+    Equal to :func:`motionlib.control.resolved_rate.resolve_rate` (same damping law: ``lambda^2 =
     damping_max^2 (1 - (sigma_min / sigma_threshold)^2)`` below the threshold, ``sigma_min``
     the smallest singular value of ``J W^1/2``, i.e. the square root of the smallest
     eigenvalue of ``J W J^T``, here from the closed-form eigenvalues of a symmetric 3 x 3).

@@ -39,7 +39,7 @@ Dense tables: the path is sampled every ``sample_step_m`` (default 5 mm) once, w
 tracker is built; the nearest point is found by walking along these samples from the last
 ``s_p`` and projecting onto the two adjacent chords; every lookup is linear interpolation.
 The update is compiled (numba, :func:`tracker_update`) on the tracker's arrays (``table``,
-``consts``, ``state``), so that the compiled closed loop (:mod:`motionlib.runtime.fast_loop`) and
+``consts``, ``state``), so that the compiled closed loop (:mod:`motionlib.sim.fast_loop`) and
 :meth:`PathTracker.update` run the same code.
 """
 

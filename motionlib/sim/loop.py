@@ -1,10 +1,10 @@
 """The closed loop of controller, simulated crane and operator at the control rate.
 
-:func:`run_closed_loop` runs a :class:`~motionlib.runtime.controller.SharedController`, a
-:class:`~motionlib.runtime.plant.SimulatedCrane` and an operator model at the control rate
-until the tip settles (or a time limit), filling a :class:`~motionlib.runtime.runlog.RunLog`.
-Sensors (:mod:`motionlib.runtime.sensors`) read the plant at the start of every step. Where the
-run allows it, the steps after the first run compiled (:mod:`motionlib.runtime.fast_loop`), with
+:func:`run_closed_loop` runs a :class:`~motionlib.control.controller.SharedController`, a
+:class:`~motionlib.sim.plant.SimulatedCrane` and an operator model at the control rate
+until the tip settles (or a time limit), filling a :class:`~motionlib.control.runlog.RunLog`.
+Sensors (:mod:`motionlib.sim.sensors`) read the plant at the start of every step. Where the
+run allows it, the steps after the first run compiled (:mod:`motionlib.sim.fast_loop`), with
 the same results.
 """
 
@@ -17,13 +17,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..checks import check_params, param
+from ..control.control_types import Authority
+from ..control.controller import SharedController
+from ..control.runlog import RunLog
 from ..errors import InputError
-from .control_types import Authority
-from .controller import SharedController
 from .fast_loop import FastLoop, fast_loop_supported, observe
 from .operators import Observation, Operator
 from .plant import SimulatedCrane
-from .runlog import RunLog
 from .sensors import Sensor, sense_calls
 
 
@@ -40,7 +40,7 @@ class LoopOptions:
     settle_hold_s : float
         ... for this long (s), with no automated motion running and the operator done.
     compiled : bool
-        Run the steps after the first compiled where the run allows it (:mod:`motionlib.runtime.fast_loop`;
+        Run the steps after the first compiled where the run allows it (:mod:`motionlib.sim.fast_loop`;
         the results are the same); False: every step in Python.
     """
 
@@ -105,8 +105,8 @@ def run_closed_loop(
 ) -> LoopResult:
     """Run controller + simulated crane + operator at the control rate until the tip settles.
 
-    Each step: the sensors read the simulated crane (:mod:`motionlib.runtime.sensors`), the
-    operator samples its stick from what it sees (:class:`motionlib.runtime.operators.Observation`),
+    Each step: the sensors read the simulated crane (:mod:`motionlib.sim.sensors`), the
+    operator samples its stick from what it sees (:class:`motionlib.sim.operators.Observation`),
     the controller turns the measured state and that sample into a joint velocity command,
     the log records the step, and the simulator holds the command for one control period.
     Start an automated motion with :meth:`SharedController.start_motion` before calling.
@@ -116,7 +116,7 @@ def run_closed_loop(
     controller : SharedController
     sim : SimulatedCrane
     operator : object with ``input(obs) -> OperatorInput`` and ``done(obs) -> bool``
-        See :mod:`motionlib.runtime.operators`.
+        See :mod:`motionlib.sim.operators`.
     options : LoopOptions, optional
     log : RunLog, optional
         Log to fill (default a new one).
@@ -142,7 +142,7 @@ def run_closed_loop(
 
     def python_step(calm: int) -> tuple[bool, int]:
         """One step in Python; returns (settled, steps settled in a row)."""
-        if senses:  # the sensor hook (:mod:`motionlib.runtime.sensors`)
+        if senses:  # the sensor hook (:mod:`motionlib.sim.sensors`)
             for sense in senses:
                 sense(sim)
         state = sim.state()
@@ -150,7 +150,7 @@ def run_closed_loop(
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, sim.swing_rad)
-        if rotator:  # the grapple rotator's axis (:mod:`motionlib.runtime.rotator`)
+        if rotator:  # the grapple rotator's axis (:mod:`motionlib.control.rotator`)
             r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
             log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
             sim.advance(status.qd_cmd, dt, r_cmd)
@@ -166,7 +166,7 @@ def run_closed_loop(
         return False, 0
 
     # the first step in Python (it also loads, or once after an install compiles, the compiled parts), then
-    # the compiled loop where the run allows it (:mod:`motionlib.runtime.fast_loop`), else Python
+    # the compiled loop where the run allows it (:mod:`motionlib.sim.fast_loop`), else Python
     settled, calm = python_step(0)
     steps = 1
     fast = None

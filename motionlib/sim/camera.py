@@ -1,25 +1,17 @@
-"""Vision control (001 section 2.4): a simulated camera on the grapple and its error-driven rate source.
+"""The simulated camera of the vision source (001 section 2.4) and its set-up for ``execute``.
 
 The camera (:class:`SimulatedCamera`) is rigidly attached to the hanging grapple frame G
-(:mod:`motionlib.model.frames`) at ``offset`` and looks straight down. Its lens frame L has
-``x_L`` along the boom's heading, ``y_L`` to its right and ``z_L`` down (the optical axis). At its
-frame rate it measures the target point (the grasp point of a log) relative to the lens, in L
-coordinates, with Gaussian noise, and delivers each measurement ``latency_s`` after the capture;
-a target outside the viewing cone (``fov_half_angle_rad`` about ``z_L``) or beyond ``range_max_m``
-gives no measurement.
+(:mod:`motionlib.model.frames`) at ``offset`` and looks straight down, its lens frame L as in
+:mod:`motionlib.control.vision`. At its frame rate it measures the target point (the grasp point
+of a log) relative to the lens, in L coordinates, with Gaussian noise, and delivers each
+measurement ``latency_s`` after the capture; a target outside the viewing cone
+(``fov_half_angle_rad`` about ``z_L``) or beyond ``range_max_m`` gives no measurement.
 
-:class:`VisionSource` turns the latest delivered measurement ``C`` and the desired one ``R``
-(where the target should appear when the grapple is over it) into the error ``E = C - R`` and the
-lens rate ``v_L = R_BL K_V E`` (001 section 2.4: "the error vector is multiplied by the vector gain
-K_V"), with ``R_BL`` the lens orientation at capture time; moving the lens by ``v`` changes the
-measurement by ``-R_BL^T v``, so each axis's error decays as ``exp(-K_V t)``. The lens rate is
-then transformed from the lens to the tip by 001 eq. 1 (:func:`motionlib.model.frames.tip_rate_for`)
-before it goes to the summing junction. A zero gain disables an axis (001 section 2.6).
-
-In :func:`~motionlib.runtime.execute.execute` (``ExecuteOptions.vision``, :class:`VisionOptions`)
-the camera is a sensor of the closed loop (:mod:`motionlib.runtime.sensors`): each control step it
+In :func:`~motionlib.sim.execute.execute` (``ExecuteOptions.vision``, :class:`VisionOptions`)
+the camera is a sensor of the closed loop (:mod:`motionlib.sim.sensors`): each control step it
 places the lens by the plant's true tip and slew (:meth:`SimulatedCamera.sense`), and the source
-(``capture=False``) reads the delivered measurements. :func:`vision_source` builds both.
+(:class:`~motionlib.control.vision.VisionSource`, ``capture=False``) reads the delivered
+measurements. :func:`vision_source` builds both.
 """
 
 from __future__ import annotations
@@ -30,12 +22,13 @@ from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
-from ..checks import as_vec3, check_int, check_params, check_scalar, check_vector, param
+from ..checks import as_vec3, check_int, check_params, check_vector, param
+from ..control.sources import Vec3
+from ..control.vision import CameraFrame, VisionSource, lens_rotation
 from ..errors import InputError
-from ..model.frames import Mat3, mrf_position, rotate, tip_rate_for
+from ..model.frames import mrf_position
 from ..model.kinematics import Crane
 from ..model.scene import Scene
-from .sources import RateSource, StepContext, Vec3
 
 #: Where a :class:`SimulatedCamera` can be mounted.
 MOUNTS: tuple[str, ...] = ("tip", "grapple")
@@ -83,32 +76,6 @@ class CameraParams:
         check_int(self.seed, "seed")
 
 
-@dataclass(frozen=True)
-class CameraFrame:
-    """One delivered measurement.
-
-    Attributes
-    ----------
-    t_capture : float
-        Capture time (s).
-    q1 : float
-        Slew angle (rad) at capture (fixes the lens orientation the measurement is in).
-    target_l : tuple of 3 float
-        Measured target position relative to the lens, in L coordinates (m).
-    """
-
-    t_capture: float
-    q1: float
-    target_l: Vec3
-
-
-def lens_rotation(q1: float) -> Mat3:
-    """``R_BL`` (3, 3): lens (L) to base coordinates at slew ``q1`` (rad); columns ``x_L, y_L, z_L``."""
-    c, s = math.cos(q1), math.sin(q1)
-    # x_L = e_r = (c, s, 0), y_L = -e_t = (s, -c, 0), z_L = -z
-    return ((c, s, 0.0), (s, -c, 0.0), (0.0, 0.0, -1.0))
-
-
 class SimulatedCamera:
     """A down-looking camera on the grapple (module docstring).
 
@@ -149,9 +116,9 @@ class SimulatedCamera:
         ) <= prm.range_max_m
 
     def sense(self, sim: Any) -> None:
-        """The sensor hook (:mod:`motionlib.runtime.sensors`): a picture from the plant's true pose, if one is due.
+        """The sensor hook (:mod:`motionlib.sim.sensors`): a picture from the plant's true pose, if one is due.
 
-        ``sim`` is the :class:`~motionlib.runtime.plant.SimulatedCrane`: the lens is placed by its
+        ``sim`` is the :class:`~motionlib.sim.plant.SimulatedCrane`: the lens is placed by its
         mount point (``sim.tip``, or ``sim.grapple`` for the grapple mount) and slew ``sim.q[0]``
         at ``sim.t`` (:meth:`capture`).
         """
@@ -192,111 +159,12 @@ class SimulatedCamera:
         return frame
 
 
-class VisionSource(RateSource):
-    """The vision controller as an automation source (001 section 2.4, module docstring).
-
-    Parameters
-    ----------
-    camera : SimulatedCamera
-    goal_l : array_like, shape (3,)
-        Desired target position in lens coordinates (m), e.g. ``(0, 0, d)``: the target ``d``
-        below the lens on the optical axis.
-    gains : array_like, shape (3,)
-        ``K_V`` per lens axis (1/s); 0 disables an axis.
-    v_max_m_s : float
-        Largest commanded lens speed (m/s); the direction is kept.
-    arrive_tol_m, arrive_speed_m_s : float
-        Arrived when the measured error (the mean of the last ``arrive_frames`` frames, over the
-        axes with a non-zero gain) is below this (m) and the tip slower than this (m/s).
-    capture : bool
-        Take the pictures in :meth:`rate`, placing the lens by the controller's tip (True: for a
-        loop without the sensor hook), or leave them to the camera's sensor hook
-        (:meth:`SimulatedCamera.sense`, False: the loop passes the camera as a sensor).
-    arrive_frames : int
-        Frames averaged for arrival: the mean of ``n`` measurements has ``1 / sqrt(n)`` of the noise.
-
-    Attributes
-    ----------
-    visible : bool
-        Whether the last step had a current measurement (no measurement: zero rate).
-    """
-
-    role = "automation"
-    space = "cartesian"
-
-    def __init__(
-        self,
-        camera: SimulatedCamera,
-        goal_l: Any,
-        gains: Any = (1.0, 1.0, 1.0),
-        v_max_m_s: float = 0.4,
-        name: str = "vision",
-        enabled: bool = True,
-        arrive_tol_m: float = 0.03,
-        arrive_speed_m_s: float = 0.02,
-        capture: bool = True,
-        arrive_frames: int = 1,
-    ):
-        super().__init__(name, gains, enabled)
-        if not isinstance(camera, SimulatedCamera):
-            raise InputError(f"camera: expected a SimulatedCamera, got {type(camera).__name__}")
-        self.camera = camera
-        self.capture = bool(capture)
-        if self.capture and camera.mount != "tip":
-            raise InputError("capture: a camera on the swinging grapple needs the sensor hook (capture=False)")
-        check_int(arrive_frames, "arrive_frames", lo=1)
-        self._errors: deque[Vec3] = deque(maxlen=int(arrive_frames))
-        self._last_frame: CameraFrame | None = None
-        self.goal: Vec3 = as_vec3(check_vector(goal_l, 3, "goal_l"))
-        self.v_max = check_scalar(v_max_m_s, "v_max_m_s", gt=0.0)
-        self.arrive_tol = check_scalar(arrive_tol_m, "arrive_tol_m", gt=0.0)
-        self.arrive_speed = check_scalar(arrive_speed_m_s, "arrive_speed_m_s", gt=0.0)
-        self.visible = False
-
-    def rate(self, ctx: StepContext) -> Vec3:
-        cam = self.camera
-        q1 = ctx.q[0]
-        if self.capture:
-            cam.capture(ctx.t, ctx.p, q1)
-        frame = cam.latest(ctx.t)
-        self.visible = frame is not None
-        if frame is None:
-            self.dist_end_m = math.inf
-            self._errors.clear()
-            return (0.0, 0.0, 0.0)
-        m, g, k = frame.target_l, self.goal, self.gains
-        e = (m[0] - g[0], m[1] - g[1], m[2] - g[2])
-        errors = self._errors
-        if frame is not self._last_frame:
-            self._last_frame = frame
-            errors.append(e)
-        if len(errors) < (errors.maxlen or 1):
-            self.dist_end_m = math.inf  # not enough frames for arrival yet
-        else:
-            n = len(errors)
-            mean = [sum(x[i] for x in errors) / n if k[i] != 0.0 else 0.0 for i in range(3)]
-            self.dist_end_m = math.sqrt(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2])
-        v = rotate(lens_rotation(frame.q1), (k[0] * e[0], k[1] * e[1], k[2] * e[2]))
-        speed = math.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
-        if speed > self.v_max:
-            f = self.v_max / speed
-            v = (v[0] * f, v[1] * f, v[2] * f)
-        return tip_rate_for(ctx.p, q1, cam.offset, v)
-
-    def arrived(self, ctx: StepContext) -> bool:
-        return self.visible and self.dist_end_m <= self.arrive_tol and ctx.tip_speed <= self.arrive_speed
-
-    def reset(self) -> None:
-        self._errors.clear()
-        self._last_frame = None
-
-
 @dataclass(frozen=True)
 class VisionOptions:
-    """The vision source of a run (:func:`motionlib.runtime.execute.execute`, ``ExecuteOptions.vision``).
+    """The vision source of a run (:func:`motionlib.sim.execute.execute`, ``ExecuteOptions.vision``).
 
     The camera looks down from its mount and is fed through the loop's sensor hook
-    (:mod:`motionlib.runtime.sensors`); the source wants the target straight below the lens, the
+    (:mod:`motionlib.sim.sensors`); the source wants the target straight below the lens, the
     grapple's bottom ``clearance_m`` above it: ``goal_l = (0, 0, clearance_m)`` on the grapple,
     ``(0, 0, grapple_length + clearance_m)`` at the tip.
 
@@ -381,7 +249,7 @@ def vision_source(crane: Crane, scene: Scene, options: VisionOptions, seed: int 
     """The vision source of ``options`` for ``crane`` in ``scene``, its camera to be fed by the sensor hook.
 
     Returns a :class:`VisionSource` with ``capture=False``: pass its ``camera`` to the loop as a
-    sensor (:func:`motionlib.runtime.loop.run_closed_loop`, ``sensors``).
+    sensor (:func:`motionlib.sim.loop.run_closed_loop`, ``sensors``).
     """
     if not isinstance(options, VisionOptions):
         raise InputError(f"vision: expected VisionOptions, got {type(options).__name__}")

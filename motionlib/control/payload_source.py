@@ -5,11 +5,11 @@ rate is commanded to each of the n manipulators independently ... Individual man
 need to know what commands are sent to the other manipulators." :class:`PayloadSource` is that
 distribution at one crane. Each control step it
 
-1. reads the broadcast command (:class:`~motionlib.runtime.payload.TwistCommand`): the MRF
+1. reads the broadcast command (:class:`~motionlib.control.payload_command.TwistCommand`): the MRF
    velocity ``v`` and the payload's angular velocity ``omega`` (world), and the commanded payload
    orientation ``R`` it integrates to (the same for every crane: nothing is exchanged);
 2. moves the rate to its own grasp frame by the rigid-body velocity transformation (001 eq. 1,
-   :func:`~motionlib.runtime.payload.grasp_velocity`): ``v_g = v + omega x R g``, with ``g`` the
+   :func:`~motionlib.control.payload_command.grasp_velocity`): ``v_g = v + omega x R g``, with ``g`` the
    grasp point's offset from the MRF in the payload frame;
 3. optionally adds a position loop around the rate (001 section 2.3), ``K_P (p_g,ref - p_g)``, with
    the grasp frame's commanded position ``p_g,ref = p_MRF,ref + R g`` and its position ``p_g`` as this
@@ -17,9 +17,9 @@ distribution at one crane. Each control step it
 4. expresses the rate in its base coordinates (the world is a CRF of the crane: a ``view``
    :class:`~motionlib.model.frames.CommandFrame` with the base's believed yaw) and converts it to the
    tip rate by 001 eq. 1 (:func:`~motionlib.model.frames.tip_rate_for`), for the crane's own resolved
-   rate (:class:`~motionlib.runtime.controller.SharedController`).
+   rate (:class:`~motionlib.control.controller.SharedController`).
 
-The crane's force-moment accommodation (:class:`~motionlib.runtime.accommodation.AccommodationSource`,
+The crane's force-moment accommodation (:class:`~motionlib.control.accommodation.AccommodationSource`,
 001 sections 2.5 and 3) is a second source of the same controller.
 """
 
@@ -34,7 +34,7 @@ import numpy as np
 from ..checks import check_scalar, check_vector
 from ..errors import InputError
 from ..model.frames import CommandFrame, PointFrame, mrf_position, rotate, tip_rate_for
-from .payload import TwistCommand, Vec3, grasp_velocity
+from .payload_command import TwistCommand, Vec3, grasp_velocity
 from .sources import RateSource, StepContext
 
 

@@ -16,7 +16,7 @@ sources' rates add (001 Fig. 1, per-axis sources):
   hydraulic arm creeps toward its end point (the tip need not reach the path's very end for the
   log to be aligned).
 
-The sum is then limited like the arm's joints (:class:`~motionlib.runtime.controller.SharedController`):
+The sum is then limited like the arm's joints (:class:`~motionlib.control.controller.SharedController`):
 velocity limits, braking before the position limits (``qd^2 <= 2 a d`` to a stop
 ``limit_margin_frac`` of the range inside each limit) and, with the command ramp, at most
 ``qdd_max dt`` change per step.
@@ -49,7 +49,7 @@ class RotatorParams:
         Lead ``lead`` (m of arc length) of the rotator's reference over ``s_p``. Assumption: 0.15 m,
         the size of the tip's final error of the hydraulic plant (docs/runtime.md).
     limit_margin_frac, brake_decel_frac : float
-        As the arm's (:class:`~motionlib.runtime.control_types.ControllerParams`).
+        As the arm's (:class:`~motionlib.control.control_types.ControllerParams`).
     command_ramp : bool
         Limit the command's change to ``qdd_max dt`` per step (the controller's safety option).
     """

@@ -1,19 +1,19 @@
 """The closed loop compiled: many control steps in one call, the same law as the per-step objects (issue 12 item 5).
 
-:func:`~motionlib.runtime.loop.run_closed_loop` hands its steps to :class:`FastLoop` when the run
+:func:`~motionlib.sim.loop.run_closed_loop` hands its steps to :class:`FastLoop` when the run
 allows it (:func:`fast_loop_supported`): the controller has its joystick and at most a path-tracker
 motion (no other sources, no rotator), the simulated crane's contact surfaces do not depend on the
 grapple (none, or the ground), there are no sensors, and the operator can say how it may be
-stepped (``fast_plan()``, :class:`~motionlib.runtime.operators.FastPlan`: the passive and the
+stepped (``fast_plan()``, :class:`~motionlib.sim.operators.FastPlan`: the passive and the
 simulated operators, the experiment's task).
 
 :func:`run_segment` then runs step after step in numba-compiled code, on the arrays the objects
 keep their state in, calling the compiled functions their methods call:
-:func:`~motionlib.runtime.operator_model.operator_input` (the operator),
-:func:`~motionlib.runtime.tracker.tracker_update`, the stick mappings of
-:mod:`~motionlib.runtime.sources`, :func:`~motionlib.runtime.command.command_law` (the controller)
-and :func:`~motionlib.runtime.plant.plant_period` (the simulated crane). One step is what
-:func:`~motionlib.runtime.loop.run_closed_loop` does in Python: observe, operator, controller, log,
+:func:`~motionlib.sim.operator_model.operator_input` (the operator),
+:func:`~motionlib.control.tracker.tracker_update`, the stick mappings of
+:mod:`~motionlib.control.sources`, :func:`~motionlib.control.command.command_law` (the controller)
+and :func:`~motionlib.sim.plant.plant_period` (the simulated crane). One step is what
+:func:`~motionlib.sim.loop.run_closed_loop` does in Python: observe, operator, controller, log,
 plant, settle check. The steps and their results are the same as in Python, to the last bit
 (``tests/integration/test_fast_loop.py``).
 
@@ -23,13 +23,13 @@ It returns to Python whenever Python has to act, and Python continues from there
   timer; the measured state is not finite);
 * within a step, after the operator (``EXIT_OPERATOR``: the model's phase changed and the plan's
   ``resume`` decides the step's input) or before the obstacle guard (``EXIT_GUARD``: the guard
-  needs fcl, whose distance :class:`~motionlib.runtime.mixer.ObstacleGuard` computes); Python
+  needs fcl, whose distance :class:`~motionlib.control.mixer.ObstacleGuard` computes); Python
   finishes that part and the segment goes on from there;
 * when a buffer is full or short (``EXIT_FLUSH``: the log rows and events are handed over;
   ``EXIT_ROOM``: more normals for the noise, a longer perception buffer);
 * at the end (``EXIT_SETTLED``, ``EXIT_LIMIT``).
 
-A real machine's controller is the per-step :class:`~motionlib.runtime.controller.SharedController`;
+A real machine's controller is the per-step :class:`~motionlib.control.controller.SharedController`;
 this module only speeds up simulations.
 """
 
@@ -42,8 +42,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numba import njit
 
-from ..model.fast_kinematics import tip_point_jacobian, tip_speed
-from .command import (
+from ..control.command import (
     EV_ABORT,
     EV_ARRIVAL,
     EV_HANDOVER,
@@ -61,10 +60,14 @@ from .command import (
     command_law,
     motion_event,
 )
-from .control_types import OperatorInput
-from .controller import SharedController
+from ..control.control_types import OperatorInput
+from ..control.controller import SharedController
+from ..control.mixer import GUARD_CACHE, MIXER_STATE, guard_clear
+from ..control.runlog import COLUMNS, RunLog
+from ..control.sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
+from ..control.tracker import TABLE_COLUMNS, TRACKER_STATE, tracker_update
+from ..model.fast_kinematics import tip_point_jacobian, tip_speed
 from .hydraulics import Q, V
-from .mixer import GUARD_CACHE, MIXER_STATE, guard_clear
 from .operator_model import (
     DONE,
     N_OPERATOR_CONSTS,
@@ -77,9 +80,6 @@ from .operator_model import (
 )
 from .operators import FastPlan, Observation
 from .plant import C_NOISE, C_T, GRAPPLE, P_NOISE, TIP, SimulatedCrane, plant_period, rod_angle, tip_velocity
-from .runlog import COLUMNS, RunLog
-from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
-from .tracker import TABLE_COLUMNS, TRACKER_STATE, tracker_update
 
 EXIT_SETTLED, EXIT_LIMIT, EXIT_PYTHON, EXIT_OPERATOR, EXIT_GUARD, EXIT_FLUSH, EXIT_ROOM = range(1, 8)
 #: Where :func:`run_segment` starts: a new step, or within one after the operator or the guard.
@@ -132,7 +132,7 @@ class ControllerArrays(NamedTuple):
 
 
 class OperatorArrays(NamedTuple):
-    """A simulated operator's arrays (:mod:`motionlib.runtime.operator_model`); zeros when none is stepped."""
+    """A simulated operator's arrays (:mod:`motionlib.sim.operator_model`); zeros when none is stepped."""
 
     consts: np.ndarray
     state: np.ndarray
@@ -206,7 +206,7 @@ class FastLoop:
     Parameters
     ----------
     controller, sim, operator
-        As :func:`~motionlib.runtime.loop.run_closed_loop`.
+        As :func:`~motionlib.sim.loop.run_closed_loop`.
     log : RunLog
     n_max, hold_steps : int
         Largest number of steps; settled steps in a row that end the run.
@@ -436,7 +436,7 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
     ctl : ControllerArrays
     op : OperatorArrays
     plant : PlantArrays
-        :attr:`SimulatedCrane.arrays <motionlib.runtime.plant.SimulatedCrane.arrays>`.
+        :attr:`SimulatedCrane.arrays <motionlib.sim.plant.SimulatedCrane.arrays>`.
     config : ndarray
         :data:`CONFIG`.
     counters : ndarray
@@ -444,7 +444,7 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
     scratch : ndarray
         :data:`SCRATCH`: the step carried across an exit (in and out).
     rows : ndarray, shape (k, 20)
-        Log rows (:data:`motionlib.runtime.runlog.COLUMNS`), filled from ``counters[rows]``.
+        Log rows (:data:`motionlib.control.runlog.COLUMNS`), filled from ``counters[rows]``.
     events : ndarray, shape (m, 3)
         Motion events ``(t, code, value)``, filled from ``counters[events]``.
     stage : int

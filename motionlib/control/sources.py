@@ -12,7 +12,7 @@ has an ``enabled`` switch. Two roles feed the shared-control mixer (000 eq. 4):
 
 New sources plug in by subclassing :class:`RateSource` (set ``role`` and ``space``,
 implement :meth:`RateSource.rate`) and passing them to
-:meth:`motionlib.runtime.controller.SharedController.add_source`.
+:meth:`motionlib.control.controller.SharedController.add_source`.
 
 Stick axes
 ----------
@@ -29,7 +29,7 @@ The operator's two analog joysticks give four axes in [-1, 1], ordered
 
 The stick mappings are compiled functions (:func:`cartesian_rate`, :func:`cartesian_axes`,
 :func:`joint_rate`, :func:`joint_axes`) on plain floats, shared by the joystick classes, the
-operator models and the compiled closed loop (:mod:`motionlib.runtime.fast_loop`).
+operator models and the compiled closed loop (:mod:`motionlib.sim.fast_loop`).
 """
 
 from __future__ import annotations
@@ -218,7 +218,7 @@ class PathTrackerSource(RateSource):
 
     Parameters
     ----------
-    tracker : motionlib.runtime.tracker.PathTracker
+    tracker : motionlib.control.tracker.PathTracker
     gains : array_like, shape (3,)
         Dimensionless per-axis factors on the tracker's tip velocity (default 1).
     """

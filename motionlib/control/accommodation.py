@@ -12,25 +12,22 @@ is balanced when ``K_F f = v``: the contact force settles at ``f = v / K_F``.
 :meth:`AccommodationSource.gains_for_bound` picks ``K_F`` from the force bound and the largest rate
 the other sources can push with.
 
-The contact force is the simulated crane's (:mod:`motionlib.runtime.contact`,
-:attr:`~motionlib.runtime.plant.SimulatedCrane.contact_force`), read by a :class:`ForceSensor` in the
-loop's sensor hook (:mod:`motionlib.runtime.sensors`) and passed on through
-:meth:`AccommodationSource.sense` once per control step before the controller's step.
+The sensed force reaches the source through :meth:`AccommodationSource.sense` once per control step
+before the controller's step: on a machine from its force sensor; in simulation from the simulated
+crane's contact force (:mod:`motionlib.sim.contact`), read by a
+:class:`~motionlib.sim.sensors.ForceSensor` in the loop's sensor hook (:mod:`motionlib.sim.sensors`).
 :class:`AccommodationOptions` and :func:`accommodation_source` set it up for
-:func:`~motionlib.runtime.execute.execute` (``ExecuteOptions.accommodation``).
+:func:`~motionlib.sim.execute.execute` (``ExecuteOptions.accommodation``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..checks import check_params, check_scalar, check_vector, param
 from ..errors import InputError
 from .sources import RateSource, StepContext, Vec3
-
-if TYPE_CHECKING:
-    from .plant import SimulatedCrane
 
 AXES = "xyz"
 
@@ -88,22 +85,9 @@ class AccommodationSource(RateSource):
         return (k[0] * (fd[0] + f[0]), k[1] * (fd[1] + f[1]), k[2] * (fd[2] + f[2]))
 
 
-class ForceSensor:
-    """The force sensor above the grapple: each step, the plant's contact force goes to ``source``.
-
-    A sensor of the loop's hook (:mod:`motionlib.runtime.sensors`).
-    """
-
-    def __init__(self, source: AccommodationSource):
-        self.source = source
-
-    def sense(self, sim: SimulatedCrane) -> None:
-        self.source.sense(sim.contact_force)
-
-
 @dataclass(frozen=True)
 class AccommodationOptions:
-    """The accommodation source of :func:`~motionlib.runtime.execute.execute` (001 section 2.5).
+    """The accommodation source of :func:`~motionlib.sim.execute.execute` (001 section 2.5).
 
     Attributes
     ----------

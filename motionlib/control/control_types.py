@@ -122,12 +122,12 @@ class OperatorInput:
         Time (s) the sample was taken; older than ``stale_after_s`` at the step means stale.
     axes : sequence of 4 float
         Stick axes ``(left_x, left_y, right_x, right_y)``, nominally in [-1, 1] (see
-        :mod:`motionlib.runtime.sources`). Anything else is handled by the controller (flagged).
+        :mod:`motionlib.control.sources`). Anything else is handled by the controller (flagged).
     abort : bool
         The abort button (ends an automated motion; control becomes manual).
     rotator : float
         The grapple rotator's axis in [-1, 1] (cranes with a rotator,
-        :class:`~motionlib.runtime.rotator.RotatorChannel`); 0 by default.
+        :class:`~motionlib.control.rotator.RotatorChannel`); 0 by default.
     """
 
     __slots__ = ("t", "axes", "abort", "rotator")
@@ -195,11 +195,11 @@ class ControllerParams:
         Nominal resolved-rate weights; None: ``min(|qd_min|, qd_max)^2`` per joint.
     limit_weight_margin : float
         Joint-limit weight fade width, fraction of each joint's range
-        (:func:`~motionlib.runtime.resolved_rate.joint_limit_weights`).
+        (:func:`~motionlib.control.resolved_rate.joint_limit_weights`).
     limit_weight_floor : float
         Weight factor at a position limit.
     sigma_threshold, damping_max : float
-        Damping law of :func:`~motionlib.runtime.resolved_rate.weighted_pinv`.
+        Damping law of :func:`~motionlib.control.resolved_rate.weighted_pinv`.
     operator_weight_raise, operator_weight_lower : float
         Joint operation: weight factors of the joints the operator moves / does not move.
     operator_activity_axis : float
@@ -213,7 +213,7 @@ class ControllerParams:
     lag_s : float
         Look-ahead (s) of the position-limit braking: the joint's position is predicted this far
         ahead with its measured velocity. 0.15 s: the plant's valve lag and oil-compliance lag
-        (``tau_v + 2 zeta / omega`` = 0.085 s, :class:`~motionlib.runtime.plant.SimParams`) with
+        (``tau_v + 2 zeta / omega`` = 0.085 s, :class:`~motionlib.sim.plant.SimParams`) with
         room for the second-order ringing and the load's reaction (with the margin of 2 % of the
         range, checked by the hypothesis safety tests).
     command_ramp : bool
@@ -221,7 +221,7 @@ class ControllerParams:
         changes by at most ``qdd_max * dt_s`` per step (the crane model's planning acceleration,
         scaled uniformly over the joints), so an abrupt stick or abort becomes a ramp. Off, the
         command may step and only the machine limits it (valve lag, flow saturation, pump,
-        relief valves: :mod:`motionlib.runtime.plant`); 000's experiment ran without such a ramp.
+        relief valves: :mod:`motionlib.sim.plant`); 000's experiment ran without such a ramp.
         Stale input and a bad state then command 0 at once.
     swing_damping : float
         Damping ratio ``zeta_s`` that the swing damping adds to the grapple pendulum (0: off).
@@ -238,7 +238,7 @@ class ControllerParams:
     joint_natural_freq_hz, joint_damping_ratio : float
         The identified second-order model of the joints' velocity response (000 section 2.1)
         that the automation's position gain is derived from (:meth:`SharedController.position_gain_max`);
-        here the simulated plant's values (:class:`~motionlib.runtime.plant.SimParams`).
+        here the simulated plant's values (:class:`~motionlib.sim.plant.SimParams`).
     position_gain_margin : float
         Gain margin of the automation's position loop (the tracker's final convergence
         ``end_gain_per_s`` is capped at the gain with this margin on the joint model loaded by

@@ -1,6 +1,6 @@
 """Contact of the grapple with the ground and the scene's obstacles in the simulated crane (an assumption).
 
-With ``SimParams.contact`` set, the simulated crane (:mod:`motionlib.runtime.plant`) pushes the
+With ``SimParams.contact`` set, the simulated crane (:mod:`motionlib.sim.plant`) pushes the
 grapple point (the pendulum's end, the bottom of the grapple) out of every surface it enters: the
 ground plane ``z = ground_z`` and, when the crane is given its scene, the scene's primitive
 obstacles (the pile's logs, the bunk's stakes, a wall; meshes are not contact surfaces: fcl gives
@@ -23,7 +23,7 @@ degree). Only obstacles whose bounding box lies within :data:`NEAR_M` of the poi
 
 The force acts on the grapple's mass, and through the rod on the tip and, with the second-order
 model, on the joints (the plant's reaction): the crane's own hydraulics, not only a sensor, feel
-the contact. :attr:`~motionlib.runtime.plant.SimulatedCrane.contact_force` is what a force/torque
+the contact. :attr:`~motionlib.sim.plant.SimulatedCrane.contact_force` is what a force/torque
 sensor above the grapple reads with the grapple's weight subtracted (001 section 2.5). Not
 modelled: the grapple's size (a point touches) and a carried log's contact.
 """

@@ -14,8 +14,8 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
    control period (seeded);
 3. direction-dependent flow saturation: ``qd_min_i <= u <= qd_max_i`` (the valve's largest
    flow in each direction, divided by the joint's displacement);
-4. the joint actuators of :mod:`motionlib.runtime.hydraulics`: valve spool lag, the shared
-   pump's flow divided between the joints (:mod:`motionlib.runtime.pump`, when
+4. the joint actuators of :mod:`motionlib.sim.hydraulics`: valve spool lag, the shared
+   pump's flow divided between the joints (:mod:`motionlib.sim.pump`, when
    ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
    response (``natural_freq_hz``, ``damping_ratio``) with the grapple's reaction as a load, and
    the relief valves' acceleration bound ``accel_factor * qdd_max_i``; ``model="first_order"``
@@ -53,12 +53,12 @@ from the vertical.
 Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_grapple)`` (N, ``m`` =
 ``load_mass_kg``); joint ``i`` feels ``f_i = (J^T F)_i / I_i`` (``I_i`` = ``joint_inertia[i]``,
 ``J`` the tip Jacobian at the start of the control period), the load term of
-:class:`~motionlib.runtime.hydraulics.HydraulicJoints`.
+:class:`~motionlib.sim.hydraulics.HydraulicJoints`.
 
 Ground contact (``SimParams.contact``)
 --------------------------------------
 The ground (and, given ``obstacles``, the scene's obstacles) push the grapple point out with a
-spring-damper and hold it with Coulomb friction (:mod:`motionlib.runtime.contact`); the force
+spring-damper and hold it with Coulomb friction (:mod:`motionlib.sim.contact`); the force
 enters the grapple's Verlet step, so it reaches the tip through the rod
 (``F = m (g_vec - a_grapple) + F_contact``) and
 the joints through the reaction above. :attr:`SimulatedCrane.contact_force` is what a force
@@ -68,9 +68,9 @@ Speed
 -----
 A control period runs in one numba-compiled function, :func:`plant_period`: steps 1-3 on the
 command, then the substeps of :func:`integrate_period` (the actuators of
-:func:`~motionlib.runtime.hydraulics.actuators_substep`, the end stops, the tip of
+:func:`~motionlib.sim.hydraulics.actuators_substep`, the end stops, the tip of
 :func:`~motionlib.model.fast_kinematics.tip_point`, the grapple and the contact).
-:meth:`SimulatedCrane.advance` and the compiled closed loop (:mod:`motionlib.runtime.fast_loop`)
+:meth:`SimulatedCrane.advance` and the compiled closed loop (:mod:`motionlib.sim.fast_loop`)
 call it on the plant's arrays (:attr:`SimulatedCrane.arrays`). The flow noise is drawn from a
 seeded numpy generator into a buffer of standard normals, consumed in order.
 
@@ -88,12 +88,12 @@ import numpy as np
 from numba import njit
 
 from ..checks import check_int, check_params, check_scalar, check_vector, param
+from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
 from .contact import ContactParams, ContactSurfaces, penalty_force
-from .control_types import GRAVITY_M_S2, CraneState
 from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
@@ -119,7 +119,7 @@ class SimParams:
         Assumption: proportional valves of mobile hydraulics settle in 0.1-0.2 s (about 3-4 time constants).
     natural_freq_hz : float
         Closed-loop natural frequency of each joint's velocity response (Hz), from the oil
-        compliance (:func:`motionlib.runtime.hydraulics.natural_frequency_rad_s`). Assumption:
+        compliance (:func:`motionlib.sim.hydraulics.natural_frequency_rad_s`). Assumption:
         2.5 Hz, e.g. the lab boom with an effective bulk modulus of 7e8 Pa (Merritt 1967's
         range for oil with hoses), its 1.4e-3 m^3/rad displacement, 0.01 m^3 of oil under
         compression and 2000 kg m^2 give 2.6 Hz; 000 section 4.1 puts the arm's undesired
@@ -149,7 +149,7 @@ class SimParams:
     seed : int
         Seed of the noise.
     pump_sharing : bool
-        Share the pump's flow (:mod:`motionlib.runtime.pump`) when the crane file gives
+        Share the pump's flow (:mod:`motionlib.sim.pump`) when the crane file gives
         ``hydraulics`` (003 section 4.3: the joints share one pump).
     load_mass_kg : float or None
         Mass of the grapple (and log) on the rod (kg), whose reaction acts on the tip. None:
@@ -165,7 +165,7 @@ class SimParams:
     gravity_m_s2 : float
     contact : ContactParams or None
         The grapple's contact with the ground and with the obstacles given to
-        :class:`SimulatedCrane` (:mod:`motionlib.runtime.contact`); None: none.
+        :class:`SimulatedCrane` (:mod:`motionlib.sim.contact`); None: none.
     """
 
     model: str = "second_order"
@@ -250,9 +250,9 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     u : ndarray, shape (n,)
         Valve commands after dead band, gains and saturation (steps 1-3), held over the period.
     joints : ndarray, shape (5, n)
-        The actuators' state (:class:`~motionlib.runtime.hydraulics.HydraulicJoints`).
+        The actuators' state (:class:`~motionlib.sim.hydraulics.HydraulicJoints`).
     alpha, second_order, w2, zw2, a_relief, displacement, pump_flow
-        The actuators' parameters (:func:`~motionlib.runtime.hydraulics.actuators_substep`).
+        The actuators' parameters (:func:`~motionlib.sim.hydraulics.actuators_substep`).
     q_min, q_max : ndarray, shape (n,)
         End stops (rad, m).
     at_stop : ndarray of bool, shape (n,)
@@ -270,7 +270,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         ``1 / I_i`` (the rotator's 0: no load).
     planes : ndarray, shape (k, 4)
         Contact half-spaces ``n . p >= d``, rows ``(n_x, n_y, n_z, d)``
-        (:class:`~motionlib.runtime.contact.ContactSurfaces`); k = 0: no contact.
+        (:class:`~motionlib.sim.contact.ContactSurfaces`); k = 0: no contact.
     contact_k, contact_c, friction : float
         The surfaces' stiffness (N/m), damping (N s/m) and friction coefficient.
 
@@ -489,7 +489,7 @@ class SimulatedCrane:
         Initial grapple rotator angle (rad, within its limits; cranes with a rotator, else ignored).
     obstacles : iterable of Obstacle
         With ``params.contact``: the scene's obstacles the grapple touches besides the ground
-        (:class:`~motionlib.runtime.contact.ContactSurfaces`).
+        (:class:`~motionlib.sim.contact.ContactSurfaces`).
 
     Attributes
     ----------

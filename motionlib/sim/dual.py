@@ -1,26 +1,26 @@
 """Two cranes on one log (001 section 3): one call that runs a dual-crane scenario on two simulated cranes.
 
-:func:`execute_dual` sets up, for each crane of a :class:`~motionlib.runtime.dual_scenario.DualScenario`:
+:func:`execute_dual` sets up, for each crane of a :class:`~motionlib.sim.dual_scenario.DualScenario`:
 
-* a :class:`~motionlib.runtime.plant.SimulatedCrane` (the hydraulic plant) standing at its *actual*
+* a :class:`~motionlib.sim.plant.SimulatedCrane` (the hydraulic plant) standing at its *actual*
   base pose (believed pose plus calibration error), started by inverse kinematics so that, by its
   own calibration, its grasp frame is at the log's grasp point;
-* a :class:`~motionlib.runtime.controller.SharedController` in M4 (manual Cartesian) whose summing
-  junction has the payload source (:class:`~motionlib.runtime.payload_source.PayloadSource`: the
+* a :class:`~motionlib.control.controller.SharedController` in M4 (manual Cartesian) whose summing
+  junction has the payload source (:class:`~motionlib.control.payload_source.PayloadSource`: the
   broadcast MRF command at this crane's grasp frame, 001 eq. 1) and, when on, the force-moment
-  accommodation (:class:`~motionlib.runtime.accommodation.AccommodationSource`, ``K_F``, desired
+  accommodation (:class:`~motionlib.control.accommodation.AccommodationSource`, ``K_F``, desired
   force the crane's share of the log's weight, 001 sections 2.5 and 3).
 
-The log (:class:`~motionlib.runtime.payload.RigidLog`) starts at rest in the grips at the crane
+The log (:class:`~motionlib.sim.payload.RigidLog`) starts at rest in the grips at the crane
 grasp points (a misfit from the calibration error squeezes it), and is driven by the two cranes'
 grasp points through the grip spring-dampers: each 5 ms control period the plants advance, then the
 log follows at 1 kHz with each crane's grasp point moving linearly over the period. The grip forces
 reach the cranes only through their force sensors (the accommodation), not their joints (module
-docstring of :mod:`motionlib.runtime.payload`). The plants carry no pendulum load
+docstring of :mod:`motionlib.sim.payload`). The plants carry no pendulum load
 (``load_mass_kg = 0``): the grapples are closed on the log, which cannot swing under one crane.
 
 What is measured (:class:`DualResult`): the internal (squeezing) force history
-(:func:`~motionlib.runtime.payload.squeeze_force`), the MRF's drift from the commanded motion and
+(:func:`~motionlib.sim.payload.squeeze_force`), the MRF's drift from the commanded motion and
 the rates it reached, against the scenario's bound and tolerance.
 """
 
@@ -34,15 +34,16 @@ from typing import Any
 
 import numpy as np
 
+from ..control.accommodation import AccommodationSource
+from ..control.control_types import ControllerParams, Flag, OperatorInput
+from ..control.controller import SharedController
+from ..control.payload_command import TwistCommand
+from ..control.payload_source import PayloadSource
 from ..errors import ExecutionError, InputError, UnreachableError
 from ..model.frames import PointFrame, mrf_position
 from ..model.kinematics import Crane
-from .accommodation import AccommodationSource
-from .control_types import ControllerParams, Flag, OperatorInput
-from .controller import SharedController
 from .dual_scenario import DualScenario
-from .payload import RigidLog, TwistCommand, squeeze_force
-from .payload_source import PayloadSource
+from .payload import RigidLog, squeeze_force
 from .plant import SimParams, SimulatedCrane
 
 _STILL = (0.0, 0.0, 0.0, 0.0)
@@ -211,7 +212,7 @@ def execute_dual(scenario: DualScenario, options: DualOptions | None = None) -> 
     InputError
         Not a scenario.
     ExecutionError
-        The log's simulation diverged (a guard: :func:`~motionlib.runtime.payload.check_stable` keeps the
+        The log's simulation diverged (a guard: :func:`~motionlib.sim.payload.check_stable` keeps the
         grips within the step's stability).
     UnreachableError
         A crane cannot reach its grasp point at the start.

@@ -8,7 +8,7 @@ states and joystick samples. One step:
    an axis outside [-1, 1] is clipped and flagged (``OUT_OF_RANGE_INPUT``); input older than
    ``stale_after_s`` (0.1 s) stops the crane (``STALE_INPUT``: target velocity 0 for every
    joint, automation included, reached within the acceleration limits).
-2. **Sources** (:mod:`motionlib.runtime.sources`, 001 Fig. 1): the enabled operator sources give
+2. **Sources** (:mod:`motionlib.control.sources`, 001 Fig. 1): the enabled operator sources give
    ``p_o`` (Cartesian operation) or joint rates ``qd_o`` (joint operation, mapped to
    ``p_o = J qd_o``, 000 eq. 1); the enabled automation sources (path tracker, position
    controller, vision source: :meth:`SharedController.start_motion`, :meth:`~SharedController.go_to`,
@@ -18,7 +18,7 @@ states and joystick samples. One step:
    M4 manual Cartesian, M5 traded + Cartesian, M6 shared + Cartesian. *Traded*: the
    operator has no effect while the automated motion runs; it ends on arrival or when the
    operator presses abort, then control is manual. *Shared*: ``p_s = c_a p_a + c_o p_o``
-   (000 eq. 4, :mod:`motionlib.runtime.mixer`), with handover to manual in weak zones.
+   (000 eq. 4, :mod:`motionlib.control.mixer`), with handover to manual in weak zones.
    **Swing damping** (``ControllerParams.swing_damping``, on by default): ``k_s r_h`` is
    added to the tip velocity in every mode (Cartesian: to ``p_s``; manual joint operation:
    resolved with the joint-limit weights and added to the operator's joint rates), ``r_h`` the
@@ -29,10 +29,10 @@ states and joystick samples. One step:
    oil springs kept the tip from settling for 2.6x the planned duration or longer, some
    motions never (docs/runtime.md).
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
-   i.e. :func:`motionlib.runtime.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
-   weights of :func:`~motionlib.runtime.resolved_rate.joint_limit_weights`, SVD-equivalent damping
+   i.e. :func:`motionlib.control.resolved_rate.resolve_rate` (weighted pseudo-inverse, joint-limit
+   weights of :func:`~motionlib.control.resolved_rate.joint_limit_weights`, SVD-equivalent damping
    near singularities, null-space term), evaluated in closed form on floats
-   (:func:`~motionlib.runtime.resolved_rate.resolve_rate_fast`: the smallest eigenvalue of the
+   (:func:`~motionlib.control.resolved_rate.resolve_rate_fast`: the smallest eigenvalue of the
    3 x 3 ``J W J^T`` gives ``sigma_min``); ``tests/test_controller.py`` checks it against
    ``resolve_rate``. Nominal weights ``w_i = qd_lim_i^2`` make the minimised
    ``qd^T W^-1 qd`` the sum of squared fractions of each joint's speed. In joint operation
@@ -46,9 +46,9 @@ states and joystick samples. One step:
    uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
    brakes at up to ``qdd_max`` on its own. The command is always finite.
 
-Steps 3-5 are the compiled command law of :mod:`motionlib.runtime.command` on the controller's
+Steps 3-5 are the compiled command law of :mod:`motionlib.control.command` on the controller's
 arrays (:attr:`SharedController.consts`, :attr:`SharedController.state`), which the compiled
-closed loop (:mod:`motionlib.runtime.fast_loop`) runs too. Flags and events are in
+closed loop (:mod:`motionlib.sim.fast_loop`) runs too. Flags and events are in
 :attr:`SharedController.status` and :attr:`SharedController.events`.
 """
 
@@ -167,7 +167,7 @@ class SharedController:
         two_ab = 2.0 * prm.brake_decel_frac * crane.qdd_max
         # swing damping (ControllerParams.swing_damping): tip velocity k_s r_h, k_s = 2 zeta_s sqrt(g / L)
         self.swing_gain_per_s = 2.0 * prm.swing_damping * math.sqrt(GRAVITY_M_S2 / crane.model.grapple_length)
-        #: The command law's constants (:func:`motionlib.runtime.command.command_consts`).
+        #: The command law's constants (:func:`motionlib.control.command.command_consts`).
         self.consts = command_consts(
             {
                 # largest change of the command per step: the command ramp (a safety option), or none
@@ -194,7 +194,7 @@ class SharedController:
                 "traded": self.mode.authority == "traded", "joint_operation": self.mode.joint_operation,
             },
         )
-        #: The command law's state (:data:`motionlib.runtime.command.COMMAND_STATE`), behind :attr:`status`.
+        #: The command law's state (:data:`motionlib.control.command.COMMAND_STATE`), behind :attr:`status`.
         self.state = np.zeros(len(COMMAND_STATE))
         st0 = ControllerStatus()
         self.state[[S_C_O, S_S_P, S_DEV, S_SIGMA]] = st0.c_o, st0.s_p, st0.deviation_m, st0.sigma_min
@@ -332,9 +332,9 @@ class SharedController:
     def start_source(self, source: RateSource, t: float = 0.0) -> RateSource:
         """A new automation command driven by ``source``, an automation source that reports its arrival.
 
-        The source (e.g. :class:`~motionlib.runtime.vision.VisionSource`, 001 section 2.4) is the
+        The source (e.g. :class:`~motionlib.control.vision.VisionSource`, 001 section 2.4) is the
         motion: it is summed into ``p_a`` with any other connected automation sources while the
-        motion is in control, and its :meth:`~motionlib.runtime.sources.RateSource.arrived` ends it.
+        motion is in control, and its :meth:`~motionlib.control.sources.RateSource.arrived` ends it.
         Its end point is not known to the controller (:attr:`motion_end_p` is None). In manual modes
         (M1, M4) the motion is accepted but has no effect.
 
@@ -461,7 +461,7 @@ class SharedController:
         return np.array(st.qd_cmd)
 
     def rotator_step(self, q5: float, qd5: float, inputs: OperatorInput | None) -> float:
-        """The grapple rotator's command (rad/s) of the step just made (:mod:`motionlib.runtime.rotator`).
+        """The grapple rotator's command (rad/s) of the step just made (:mod:`motionlib.control.rotator`).
 
         Call after :meth:`step` with the measured rotator angle ``q5`` (rad) and velocity ``qd5``
         (rad/s): the operator's rotator axis plus, while the automated motion is in control, its
@@ -506,7 +506,7 @@ class SharedController:
         return axes, abort, flags, False
 
     def _command(self, ctx: StepContext, abort: bool, flags: int) -> None:
-        """Sum the sources (step 2), then the command law (steps 3-5: :func:`.command.command_law`)."""
+        """Sum the sources (step 2), then the command law (steps 3-5: :func:`motionlib.control.command.command_law`)."""
         cs = self.state
         jac = ctx.jac
 

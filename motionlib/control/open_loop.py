@@ -13,7 +13,7 @@ gives no equations for it; this module is motionlib's version:
   swallows at the slow ends of the motion is left to the modification;
 * **one measurement per execution**: the configuration at rest after the motion
   (on a machine: an end-point measurement such as a tip sensor or the operator's correction;
-  here the simulated crane's state);
+  in simulation the simulated crane's state);
 * **modification** (:class:`TrajectoryModification`): an iterative-learning update of the
   commands per joint, ``u_i <- u_i + L e_i w_i(t)``, where ``e_i`` is the joint's end error,
   ``L`` the learning gain and ``w_i`` a profile of unit integral proportional to the joint's
@@ -27,14 +27,15 @@ gives no equations for it; this module is motionlib's version:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 
 from ..checks import check_params, check_vector, param
 from ..errors import InputError
 from ..planning.trajectory import Trajectory
-from .plant import SimulatedCrane
 
 
 @dataclass(frozen=True)
@@ -98,8 +99,22 @@ def feed_forward(traj: Trajectory, options: OpenLoopOptions | None = None) -> Fe
     return FeedForward(np.arange(n) * o.dt_s, u, o.dt_s)
 
 
-def run_open_loop(sim: SimulatedCrane, ff: FeedForward, settle_s: float) -> np.ndarray:
-    """Send ``ff``'s commands to ``sim`` without looking at its state, then let it settle.
+class OpenLoopMachine(Protocol):
+    """What open-loop execution drives: valves that take a command for a time, and one end measurement.
+
+    :class:`~motionlib.sim.plant.SimulatedCrane` is one; a machine's adapter sends the joint velocity
+    command ``u`` (4,) (rad/s, m/s) to its valves for ``dt_s`` seconds in :meth:`advance` and gives
+    the measured configuration at rest as :attr:`q` (4,) (rad, rad, rad, m).
+    """
+
+    @property
+    def q(self) -> Sequence[float]: ...
+
+    def advance(self, u: Any, dt_s: float) -> Any: ...
+
+
+def run_open_loop(machine: OpenLoopMachine, ff: FeedForward, settle_s: float) -> np.ndarray:
+    """Send ``ff``'s commands to ``machine`` without looking at its state, then let it settle.
 
     Returns
     -------
@@ -107,10 +122,10 @@ def run_open_loop(sim: SimulatedCrane, ff: FeedForward, settle_s: float) -> np.n
         The configuration at rest after the motion (the one measurement).
     """
     for u in ff.u:
-        sim.advance(u, ff.dt_s)
+        machine.advance(u, ff.dt_s)
     if settle_s > 0.0:
-        sim.advance((0.0, 0.0, 0.0, 0.0), settle_s)
-    return np.asarray(sim.q, dtype=float)
+        machine.advance((0.0, 0.0, 0.0, 0.0), settle_s)
+    return np.asarray(machine.q, dtype=float)
 
 
 @dataclass
@@ -167,9 +182,9 @@ class TrajectoryModification:
         self.updates[bool(loaded)] += 1
         return error
 
-    def execute(self, sim: SimulatedCrane, loaded: bool, learn: bool = True) -> np.ndarray:
-        """Run the modified commands open loop on ``sim``; learn from the end (if ``learn``); returns the end (4,)."""
-        q_end = run_open_loop(sim, self.commands(loaded), self.options.settle_s)
+    def execute(self, machine: OpenLoopMachine, loaded: bool, learn: bool = True) -> np.ndarray:
+        """Run the modified commands open loop on ``machine``; learn from the end if ``learn``; the end (4,)."""
+        q_end = run_open_loop(machine, self.commands(loaded), self.options.settle_s)
         if learn:
             self.update(loaded, q_end)
         return q_end

@@ -17,7 +17,7 @@ Lines starting with ``#`` are comments::
     6.0,0,0,0,0,0,0
 
 ``t`` (s) is the time from the start of the run; ``left_x .. right_y`` are the stick axes
-(:mod:`motionlib.runtime.sources`), nominally in [-1, 1] (``nan``, ``inf`` and out-of-range values are
+(:mod:`motionlib.control.sources`), nominally in [-1, 1] (``nan``, ``inf`` and out-of-range values are
 passed on as they are: that is how a faulty device is scripted); ``abort`` is 0 or 1 (button
 held). ``dropout`` (optional) is 0 or 1: 1 means the device stops sending at that row, so the
 controller's copy of the input ages and turns stale 0.1 s later. Each row holds until the
@@ -142,12 +142,13 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..checks import check_int, check_params, check_points, check_vector, param, short
+from ..control.control_types import Mode, OperatorInput
+from ..control.sources import CartesianJoystick, JointJoystick, RateSource
 from ..errors import InputError, ModelFileError
 from ..fileio import path_exists
 from ..model.fast_kinematics import geometry
 from ..model.kinematics import Crane
 from ..schema import read_text
-from .control_types import Mode, OperatorInput
 from .operator_model import (
     BY_DISTANCE,
     BY_TIME_TO_ARRIVAL,
@@ -169,7 +170,6 @@ from .operator_model import (
     stick_retarget,
     stick_state,
 )
-from .sources import CartesianJoystick, JointJoystick, RateSource
 
 Vec3 = tuple[float, float, float]
 _ZERO4 = (0.0, 0.0, 0.0, 0.0)
@@ -224,7 +224,7 @@ class Operator(Protocol):
 
 @dataclass(frozen=True)
 class FastPlan:
-    """How the compiled closed loop (:mod:`motionlib.runtime.fast_loop`) may step an operator from now on.
+    """How the compiled closed loop (:mod:`motionlib.sim.fast_loop`) may step an operator from now on.
 
     An operator that has a ``fast_plan() -> FastPlan | None`` method can be stepped in compiled code
     (None: not now); the plan holds until Python runs a step again.
@@ -232,7 +232,7 @@ class FastPlan:
     Attributes
     ----------
     model : SimulatedOperator or None
-        The model whose compiled step gives the stick (:func:`~motionlib.runtime.operator_model.operator_input`);
+        The model whose compiled step gives the stick (:func:`~motionlib.sim.operator_model.operator_input`);
         None: the stick rests at 0, fresh, no abort.
     python_at : float
         From this time (s) on, Python runs the steps (e.g. a task's timer).
@@ -446,8 +446,8 @@ class MinimumJerkStick:
     ``c4 = -15 D + 8 v0 T + 1.5 a0 T^2``, ``c5 = 6 D - 3 v0 T - 0.5 a0 T^2`` (``D = s1 - s0``):
     the path of least integrated squared jerk with these end conditions (from rest it is
     ``s0 + D (10 tau^3 - 15 tau^4 + 6 tau^5)``). Position, velocity and acceleration are
-    continuous at every re-plan. Compiled: :func:`~motionlib.runtime.operator_model.stick_state`
-    and :func:`~motionlib.runtime.operator_model.stick_retarget` on :attr:`array`.
+    continuous at every re-plan. Compiled: :func:`~motionlib.sim.operator_model.stick_state`
+    and :func:`~motionlib.sim.operator_model.stick_retarget` on :attr:`array`.
 
     Parameters
     ----------
@@ -457,7 +457,7 @@ class MinimumJerkStick:
 
     def __init__(self, move_s: float):
         self.move_s = float(move_s)
-        #: The stick's array (:data:`motionlib.runtime.operator_model.STICK`).
+        #: The stick's array (:data:`motionlib.sim.operator_model.STICK`).
         self.array = np.zeros(len(STICK))
 
     def state(self, t: float) -> tuple[list[float], list[float], list[float]]:
@@ -480,9 +480,9 @@ _TAKEOVER_KINDS = {BY_DISTANCE: "distance", BY_TIME_TO_ARRIVAL: "time-to-arrival
 class SimulatedOperator:
     """A goal-directed operator model (see the module docstring).
 
-    Its step is compiled (:func:`motionlib.runtime.operator_model.operator_input`) on the arrays
+    Its step is compiled (:func:`motionlib.sim.operator_model.operator_input`) on the arrays
     :attr:`consts`, :attr:`state`, :attr:`seen`, :attr:`via`, :attr:`subsets` and :attr:`normals` and
-    its stick's (:mod:`motionlib.runtime.operator_model`), which the compiled closed loop shares.
+    its stick's (:mod:`motionlib.sim.operator_model`), which the compiled closed loop shares.
 
     Parameters
     ----------

@@ -87,7 +87,7 @@ class RunLog:
     def append_rotator(self, q5: float, qd5: float, cmd: float) -> None:
         """The grapple rotator's row of the step just appended: angle (rad), velocity (rad/s), command (rad/s).
 
-        Cranes with a rotator (:mod:`motionlib.runtime.rotator`); the log then has a ``rotator`` dataset.
+        Cranes with a rotator (:mod:`motionlib.control.rotator`); the log then has a ``rotator`` dataset.
         """
         self._rotator.append((q5, qd5, cmd))
 
@@ -111,8 +111,8 @@ class RunLog:
         dict
             ``t`` (N,) s; ``q`` (N, 4); ``qd`` (N, 4) actual; ``qd_cmd`` (N, 4) commanded;
             ``c_a``, ``c_o`` (N,); ``s_p`` (N,) m; ``deviation_m`` (N,) m (NaN when no
-            automated motion runs); ``flags`` (N,) uint16 (:class:`~motionlib.runtime.controller.Flag`);
-            ``authority`` (N,) int8 (:class:`~motionlib.runtime.controller.Authority`); ``swing_rad`` (N,);
+            automated motion runs); ``flags`` (N,) uint16 (:class:`~motionlib.control.controller.Flag`);
+            ``authority`` (N,) int8 (:class:`~motionlib.control.controller.Authority`); ``swing_rad`` (N,);
             with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s; with the grapple rotator
             (:meth:`append_rotator` every step) ``rotator`` (N, 3): q5 (rad), its velocity and command (rad/s).
         """
