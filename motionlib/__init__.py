@@ -85,7 +85,7 @@ _EXPORTS: dict[str, str] = {
     "Mode": "motionlib.control.control_types",
     "RunResult": "motionlib.sim.execute",
     "ExecuteOptions": "motionlib.sim.execute",
-    "VisionOptions": "motionlib.control.vision",
+    "VisionOptions": "motionlib.sim.camera",
     "AccommodationOptions": "motionlib.control.accommodation",
     "DualScenario": "motionlib.sim.dual_scenario",
     "DualOptions": "motionlib.sim.dual",

@@ -266,6 +266,15 @@ def tip_goal(crane: Crane, source: VisionSource) -> Vec3:
 
     The target plus ``grapple_length + clearance``: the grapple hangs still under the tip.
     """
-    t = source.camera.target
-    depth = source.goal[2] + (crane.model.grapple_length if source.camera.mount == "grapple" else 0.0)
+    camera = simulated_camera(source)
+    t = camera.target
+    depth = source.goal[2] + (crane.model.grapple_length if camera.mount == "grapple" else 0.0)
     return (t[0], t[1], t[2] + depth)
+
+
+def simulated_camera(source: VisionSource) -> SimulatedCamera:
+    """The :class:`SimulatedCamera` feeding ``source`` (from :func:`vision_source`); InputError for another camera."""
+    camera = source.camera
+    if not isinstance(camera, SimulatedCamera):
+        raise InputError(f"vision source: expected a SimulatedCamera, got {type(camera).__name__}")
+    return camera

@@ -34,7 +34,7 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
-from .camera import VisionOptions, tip_goal, vision_source
+from .camera import VisionOptions, simulated_camera, tip_goal, vision_source
 from .contact import ContactParams
 from .loop import LoopOptions, LoopResult, run_closed_loop
 from .operators import Operator, make_operator, operator_kind
@@ -301,11 +301,11 @@ def execute(
             "noise": opts.sim.noise_frac,
             "scene": scene.name,
             "loaded": loaded,
-            **({"vision_target": list(vision.camera.target)} if vision is not None else {}),
+            **({"vision_target": list(simulated_camera(vision).target)} if vision is not None else {}),
             **dict(log_attrs or {}),
         }
     )
-    own: list[Sensor] = [vision.camera] if vision is not None else []
+    own: list[Sensor] = [simulated_camera(vision)] if vision is not None else []
     if opts.accommodation is not None:
         accommodation = accommodation_source(opts.accommodation, opts.mixer.v_operator_max_m_s)
         controller.add_source(accommodation)

@@ -87,6 +87,14 @@ def test_one_call_per_job_is_exported():
         assert isinstance(getattr(motionlib, name), type)
 
 
+def test_every_public_name_resolves():
+    """Each name of ``motionlib.__all__`` loads from the module ``_EXPORTS`` gives (or is defined in ``motionlib``)."""
+    code = "import motionlib\nprint(sum(getattr(motionlib, n) is not None for n in motionlib.__all__))\n"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout) == len(motionlib.__all__)
+
+
 def test_import_motionlib_stays_light():
     """``import motionlib`` loads no solver, collision library or plotting package."""
     code = (
