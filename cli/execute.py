@@ -1,8 +1,8 @@
 """``motionlib execute``: select a library trajectory and run it in the shared-control loop on the simulated crane.
 
-The crane and scene are the ones embedded in the library. The run stops when the tip has
-settled (no automated motion running, operator done, tip slower than 1 cm/s for 0.3 s) or at
-the time limit; see docs/runtime.md.
+The crane and scene are the ones embedded in the library. The run stops when it has settled
+(no automated motion running, operator done, tip slower than 1 cm/s and grapple swing below
+0.03 rad for 0.3 s) or at the time limit; see docs/runtime.md.
 """
 
 from __future__ import annotations
@@ -136,7 +136,8 @@ def _print_report(s: dict[str, Any]) -> None:
     settled = "settled" if s["settled"] else "time limit reached"
     click.echo(f"{s['mode']} with operator {s['operator']}: library row {s['library_row']} "
                f"(planned {s['planned_duration_s']:.2f} s), {settled}")
-    click.echo(f"  cycle time        {_fmt(s['cycle_time_s'], 's', 2)}")
+    click.echo(f"  cycle time        {_fmt(s['cycle_time_s'], 's', 2)} "
+               f"(settle ratio {_fmt(s['settle_ratio'], 'x planned', 2)})")
     click.echo(f"  final error       {_fmt(s['final_error_m'], 'm')}")
     click.echo(f"  total jerk        {s['total_jerk']:.4g} m^2/s^5 (000 eq. 6, third derivative); "
                f"squared acceleration {s['total_sq_acceleration']:.4g} m^2/s^3")
@@ -144,7 +145,9 @@ def _print_report(s: dict[str, Any]) -> None:
                f"peak jerk {_fmt(s['peak_jerk_m_s3'], 'm/s^3', 1)}")
     click.echo(f"  max deviation     {_fmt(s['max_deviation_m'], 'm')}")
     click.echo(f"  handover          {_fmt(s['handover_time_s'], 's', 2)}; arrival {_fmt(s['arrival_time_s'], 's', 2)}")
-    click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}")
+    click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}; "
+               f"residual {_fmt(s['residual_swing_rad'], 'rad')}")
+    click.echo(f"  overshoot         {_fmt(s['overshoot_m'], 'm')} past the end point")
     if "vision_target" in s:
         click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m")
     if "peak_contact_force_n" in s:

@@ -38,6 +38,8 @@ from ..planning.trajectory import Trajectory
 TRIM_UNSETTLED_S = 0.25
 #: Authority codes (motionlib.control.controller.Authority) during which an automated motion is in control.
 _AUTOMATED = (1, 2)
+#: Radius (m) around a trajectory's end point within which :func:`overshoot` starts looking.
+OVERSHOOT_RADIUS_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -198,6 +200,16 @@ class RunSummary:
         Duration (s) of the executed trajectory; None without one.
     flags_seen : int
         OR of every step's controller flags.
+    residual_swing_rad : float
+        The grapple's swing angle (rad) at the cycle time (the logged sample at or just before
+        ``cycle_time_s``): below ``LoopOptions.settle_swing_rad`` for a settled run, the swing
+        left at the end of one that hit its time limit.
+    overshoot_m : float or None
+        How far (m) the tip went past the trajectory's end point along the motion's final
+        direction (:func:`overshoot`); None without a trajectory.
+    settle_ratio : float or None
+        ``cycle_time_s / planned_duration_s``: the executed time per planned time (1 would be a
+        motion that arrives and stops swinging exactly when planned); None without a trajectory.
     """
 
     cycle_time_s: float
@@ -213,6 +225,9 @@ class RunSummary:
     peak_swing_rad: float
     planned_duration_s: float | None
     flags_seen: int
+    residual_swing_rad: float
+    overshoot_m: float | None
+    settle_ratio: float | None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -275,4 +290,73 @@ def run_summary(
     out["peak_swing_rad"] = float(np.max(arrays["swing_rad"])) if t.size else 0.0
     out["planned_duration_s"] = trajectory.duration_s if trajectory is not None else None
     out["flags_seen"] = int(np.bitwise_or.reduce(arrays["flags"])) if t.size else 0
+    out["residual_swing_rad"] = residual_swing(t, arrays["swing_rad"], cycle_time_s)
+    if trajectory is not None and t.size:
+        spline = TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
+        out["overshoot_m"] = overshoot(tip, spline(spline.length), spline.derivative(spline.length))
+        out["settle_ratio"] = float(cycle_time_s) / trajectory.duration_s if trajectory.duration_s > 0 else None
+    else:
+        out["overshoot_m"] = out["settle_ratio"] = None
     return RunSummary(**out)
+
+
+def residual_swing(t: np.ndarray, swing_rad: np.ndarray, at_s: float) -> float:
+    """The swing angle (rad) of the last sample at or before ``at_s`` (the first sample when all are later).
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Sample times (s), increasing.
+    swing_rad : ndarray, shape (N,)
+        Grapple swing angles (rad).
+    at_s : float
+        Time (s), e.g. the cycle time.
+
+    Returns
+    -------
+    float
+        0.0 for an empty log.
+    """
+    if t.size == 0:
+        return 0.0
+    k = max(int(np.searchsorted(t, at_s + 1e-9, side="right")) - 1, 0)  # (1e-9 s: the cycle time's rounding)
+    return float(swing_rad[k])
+
+
+def overshoot(tip_p: Any, end_p: Any, end_tangent: Any, radius_m: float = OVERSHOOT_RADIUS_M) -> float:
+    """How far (m) the tip went past a path's end point along the path's final direction.
+
+    With ``e`` the end point and ``u`` the unit tangent of the planned tip path at its end
+    (the direction the motion arrives in), the overshoot is the largest
+    ``max(0, (p_k - e) . u)`` over the tip samples ``p_k`` from the first one within ``radius_m``
+    of ``e`` to the last (only the last sample when none comes that close): the distance the tip
+    passed the end point's normal plane, 0 for a tip that stops short or beside it. Starting at the
+    first approach keeps earlier parts of a curved path that lie beyond that plane out.
+
+    Parameters
+    ----------
+    tip_p : array_like, shape (N, 3)
+        Tip positions (m), in time order, N >= 1.
+    end_p : array_like, shape (3,)
+        The path's end point (m).
+    end_tangent : array_like, shape (3,)
+        The path's tangent at its end (any length > 0; normalised here).
+    radius_m : float
+        Radius (m) of the approach that starts the search (default :data:`OVERSHOOT_RADIUS_M`).
+
+    Returns
+    -------
+    float
+        Overshoot (m), >= 0.
+    """
+    p = check_points(tip_p, "tip_p")
+    e = check_vector(end_p, 3, "end_p")
+    u = check_vector(end_tangent, 3, "end_tangent")
+    check_scalar(radius_m, "radius_m", gt=0.0)
+    norm = float(np.linalg.norm(u))
+    if norm == 0.0:
+        raise InputError("end_tangent: expected a nonzero vector")
+    near = np.flatnonzero(np.linalg.norm(p - e, axis=1) <= radius_m)
+    first = int(near[0]) if near.size else p.shape[0] - 1
+    along = (p[first:] - e) @ (u / norm)
+    return max(0.0, float(along.max()))

@@ -4,8 +4,9 @@
 (optional), the :class:`~motionlib.control.controller.SharedController` in the chosen mode
 with the trajectory as its automated motion, the simulated crane
 (:class:`~motionlib.sim.plant.SimulatedCrane`) at the start configuration, the operator
-model, and the run log; it runs :func:`~motionlib.sim.loop.run_closed_loop` until the tip
-settles or the time limit, and measures the run (:func:`~motionlib.control.metrics.run_summary`).
+model, and the run log; it runs :func:`~motionlib.sim.loop.run_closed_loop` until the run
+settles (the tip at rest and the grapple no longer swinging) or the time limit, and measures
+the run (:func:`~motionlib.control.metrics.run_summary`).
 ``motionlib execute``, notebook 03, the experiment's benchmark and the safety tests all call it.
 """
 
@@ -59,7 +60,8 @@ class ExecuteOptions:
     controller, mixer, tracker : ControllerParams, MixerParams, TrackerParams
         Controller parameters; the defaults are documented in docs/runtime.md.
     loop : LoopOptions
-        When the run counts as settled (its ``time_limit_s`` is replaced by ``time_limit_s``).
+        When the run counts as settled: tip speed, grapple swing, hold time (its ``time_limit_s``
+        is replaced by ``time_limit_s``).
     stick_mrf, stick_crf : str or None
         Cartesian modes (M4-M6): the operator's stick moves this MRF (a point of the grapple or
         the log), its axes along this CRF (001 section 2, eq. 1;
@@ -113,7 +115,7 @@ class ExecuteOptions:
 class RunStatus(enum.Enum):
     """How a run ended."""
 
-    SETTLED = "settled"  # the tip came to rest with no automated motion running and the operator done
+    SETTLED = "settled"  # tip at rest, grapple swing below LoopOptions.settle_swing_rad, no automation, operator done
     TIME_LIMIT = "time_limit"  # the time limit was reached first
 
 
@@ -127,7 +129,8 @@ class RunResult:
     reason : str
         One line; empty when settled.
     summary : RunSummary
-        Cycle time, final error, total jerk, peaks, deviation, handover, swing.
+        Cycle time, final error, total jerk, peaks, deviation, handover, swing; the residual
+        swing, the overshoot past the end point and the settle ratio (cycle time / planned duration).
     log : RunLog
         The 200 Hz log (states, commands, mixing, flags) and the events.
     arrays : dict of str to ndarray
@@ -314,5 +317,7 @@ def execute(
     arrays = log.arrays(crane)
     summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT
-    reason = "" if loop.settled else f"the tip had not settled after the time limit of {opts.time_limit_s:g} s"
+    reason = "" if loop.settled else (f"the run had not settled (tip at rest, grapple swing below "
+                                       f"{opts.loop.settle_swing_rad:g} rad) after the time limit of "
+                                       f"{opts.time_limit_s:g} s")
     return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory)

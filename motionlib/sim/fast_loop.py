@@ -14,8 +14,8 @@ keep their state in, calling the compiled functions their methods call:
 :mod:`~motionlib.control.sources`, :func:`~motionlib.control.command.command_law` (the controller)
 and :func:`~motionlib.sim.plant.plant_period` (the simulated crane). One step is what
 :func:`~motionlib.sim.loop.run_closed_loop` does in Python: observe, operator, controller, log,
-plant, settle check. The steps and their results are the same as in Python, to the last bit
-(``tests/integration/test_fast_loop.py``).
+plant, settle check (tip speed and grapple swing). The steps and their results are the same as in
+Python, to the last bit (``tests/integration/test_fast_loop.py``).
 
 It returns to Python whenever Python has to act, and Python continues from there:
 
@@ -98,8 +98,9 @@ SETUP: tuple[str, ...] = ("joint_joystick", "base_frame", "has_motion", "motion_
     0, 1, 2, 3, 6, 7, 8, 11, 12, 13)
 #: Entries of the loop's configuration array.
 CONFIG: tuple[str, ...] = ("n_max", "settle_v2", "hold_steps", "python_at", "exit_on_phase", "python_when_manual",
-                           "done", "has_model", "dt")
-L_N_MAX, L_SETTLE_V2, L_HOLD, L_PYTHON_AT, L_EXIT_PHASE, L_WHEN_MANUAL, L_DONE, L_MODEL, L_DT = range(9)
+                           "done", "has_model", "dt", "settle_swing")
+(L_N_MAX, L_SETTLE_V2, L_HOLD, L_PYTHON_AT, L_EXIT_PHASE, L_WHEN_MANUAL, L_DONE, L_MODEL, L_DT,
+ L_SETTLE_SWING) = range(10)
 #: Entries of the loop's counters: steps made, steps settled in a row, log rows and events buffered.
 COUNTERS: tuple[str, ...] = ("steps", "calm", "rows", "events")
 N_STEPS, N_CALM, N_ROWS, N_EVENTS = range(4)
@@ -212,13 +213,16 @@ class FastLoop:
         Largest number of steps; settled steps in a row that end the run.
     settle_v2 : float
         Square of the settle speed (m^2/s^2).
+    settle_swing : float
+        The settle swing angle (rad): a settled step's swing is below it.
     """
 
     def __init__(self, controller: SharedController, sim: SimulatedCrane, operator: Any, log: RunLog, n_max: int,
-                 hold_steps: int, settle_v2: float):
+                 hold_steps: int, settle_v2: float, settle_swing: float):
         self.controller, self.sim, self.operator, self.log = controller, sim, operator, log
         self.config = np.zeros(len(CONFIG))
-        self.config[[L_N_MAX, L_SETTLE_V2, L_HOLD, L_DT]] = n_max, settle_v2, hold_steps, controller.params.dt_s
+        self.config[[L_N_MAX, L_SETTLE_V2, L_HOLD, L_DT, L_SETTLE_SWING]] = (
+            n_max, settle_v2, hold_steps, controller.params.dt_s, settle_swing)
         self.counters = np.zeros(len(COUNTERS))
         self.scratch = np.zeros(len(SCRATCH))
         self.rows = np.zeros((_BLOCK_ROWS, len(COLUMNS)))
@@ -515,8 +519,8 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
                      plant.inv_inertia, plant.planes)
         counters[N_STEPS] += 1
         done = op.state[X_PHASE] == DONE if config[L_DONE] < 0.0 else config[L_DONE] != 0.0
-        if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < config[L_SETTLE_V2] and cs[S_AUTO] == 0.0
-                and cs[S_AUTHORITY] != 3 and done):
+        if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < config[L_SETTLE_V2] and swing_rad < config[L_SETTLE_SWING]
+                and cs[S_AUTO] == 0.0 and cs[S_AUTHORITY] != 3 and done):
             counters[N_CALM] += 1
             if counters[N_CALM] >= config[L_HOLD]:
                 return EXIT_SETTLED

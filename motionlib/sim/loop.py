@@ -2,7 +2,8 @@
 
 :func:`run_closed_loop` runs a :class:`~motionlib.control.controller.SharedController`, a
 :class:`~motionlib.sim.plant.SimulatedCrane` and an operator model at the control rate
-until the tip settles (or a time limit), filling a :class:`~motionlib.control.runlog.RunLog`.
+until the motion has settled (or a time limit): the tip at rest and the grapple no longer
+swinging (:class:`LoopOptions`), filling a :class:`~motionlib.control.runlog.RunLog`.
 Sensors (:mod:`motionlib.sim.sensors`) read the plant at the start of every step. Where the
 run allows it, the steps after the first run compiled (:mod:`motionlib.sim.fast_loop`), with
 the same results.
@@ -36,9 +37,15 @@ class LoopOptions:
     time_limit_s : float
         Longest simulated time (s).
     settle_speed_m_s : float
-        The tip has settled when it moves slower than this (m/s) ...
+        The run has settled when the tip moves slower than this (m/s) ...
+    settle_swing_rad : float
+        ... and the grapple's swing angle from the vertical (the logged ``swing_rad``,
+        :attr:`SimulatedCrane.swing_rad <motionlib.sim.plant.SimulatedCrane.swing_rad>`) is below
+        this (rad, > 0; a value above pi leaves the swing out, the tip alone decides) ...
     settle_hold_s : float
-        ... for this long (s), with no automated motion running and the operator done.
+        ... for this long (s), with no automated motion running and the operator done. A step
+        counts with its logged tip speed (the plant's, over its last substep) and swing, measured
+        at the start of the step.
     compiled : bool
         Run the steps after the first compiled where the run allows it (:mod:`motionlib.sim.fast_loop`;
         the results are the same); False: every step in Python.
@@ -46,6 +53,7 @@ class LoopOptions:
 
     time_limit_s: float = param(60.0, gt=0.0, le=86_400.0)  # a day; beyond, the step count overflows
     settle_speed_m_s: float = param(0.01, gt=0.0)
+    settle_swing_rad: float = param(0.03, gt=0.0)
     settle_hold_s: float = param(0.3, gt=0.0)
     compiled: bool = True
 
@@ -63,10 +71,10 @@ class LoopResult:
     ----------
     log : RunLog
     settled : bool
-        The tip settled before the time limit.
+        The run settled (tip at rest, grapple not swinging, :class:`LoopOptions`) before the time limit.
     cycle_time_s : float
-        Time (s) at which the tip settled (the start of the settled window), or the time
-        limit when it did not.
+        Time (s) at which the run settled (the start of the settled window), or the end of the
+        log when it did not.
     wall_time_s : float
         Wall-clock time of the loop from its second step on (s): the first step and the
         compiled loop's load come before (they load numba's cache, or compile once after an
@@ -103,7 +111,7 @@ def run_closed_loop(
     *,
     sensors: Iterable[Sensor] | None = None,
 ) -> LoopResult:
-    """Run controller + simulated crane + operator at the control rate until the tip settles.
+    """Run controller + simulated crane + operator at the control rate until the motion settles.
 
     Each step: the sensors read the simulated crane (:mod:`motionlib.sim.sensors`), the
     operator samples its stick from what it sees (:class:`motionlib.sim.operators.Observation`),
@@ -135,6 +143,7 @@ def run_closed_loop(
     n_max = int(math.ceil(opts.time_limit_s / dt))
     hold_steps = max(1, int(math.ceil(opts.settle_hold_s / dt)))
     settle_v2 = opts.settle_speed_m_s**2
+    settle_swing = opts.settle_swing_rad
     obs = Observation()
     status = controller.status
     append = log.append
@@ -147,9 +156,10 @@ def run_closed_loop(
                 sense(sim)
         state = sim.state()
         vx, vy, vz = observe(obs, sim, controller).v
+        swing = sim.swing_rad
         inp = operator.input(obs)
         controller.step(state, inp)
-        append(state.t, state.q, state.qd, status, sim.swing_rad)
+        append(state.t, state.q, state.qd, status, swing)
         if rotator:  # the grapple rotator's axis (:mod:`motionlib.control.rotator`)
             r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
             log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
@@ -158,6 +168,7 @@ def run_closed_loop(
             sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
         if (
             vx * vx + vy * vy + vz * vz < settle_v2
+            and swing < settle_swing
             and not controller.automation_active
             and status.authority != Authority.STOPPED
             and operator.done(obs)
@@ -171,7 +182,7 @@ def run_closed_loop(
     steps = 1
     fast = None
     if not settled and steps < n_max and opts.compiled and fast_loop_supported(controller, sim, operator, senses):
-        fast = FastLoop(controller, sim, operator, log, n_max, hold_steps, settle_v2)
+        fast = FastLoop(controller, sim, operator, log, n_max, hold_steps, settle_v2, settle_swing)
         fast.load()
     t0 = time.perf_counter()  # the wall clock starts after the first step and the compiled loop's load
     if fast is not None:

@@ -1,0 +1,127 @@
+"""Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
+
+Run: ``/work/venv/bin/python benchmarks/executed.py [--library PATH] [--rows N] [--no-swing-settle]``
+
+The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):
+a motion counts when the grapple has arrived and stopped swinging, which is when
+:func:`motionlib.execute` says a run settled (the tip slower than ``LoopOptions.settle_speed_m_s``
+and the grapple's swing below ``LoopOptions.settle_swing_rad`` for ``settle_hold_s``, docs/runtime.md).
+
+``--rows N`` rows of the library (default 20), evenly spaced over its rows (``round(linspace(0,
+n - 1, N))``, deterministic), each run by the public :func:`motionlib.execute` in M6 with the passive
+operator (hands off: the automation alone) on the default simulated crane (second-order hydraulics,
+swinging grapple, no valve noise), seed 0, 40 s time limit, the obstacle guard on. Per row: the
+planned duration, the settle (cycle) time, their ratio (``RunSummary.settle_ratio``), the overshoot
+past the end point along the final direction (``RunSummary.overshoot_m``), the residual swing at
+the settle time and whether the run settled. Then the median and max ratio and the max overshoot
+against the issue's targets: ratio median <= 1.15, max <= 1.35; overshoot <= 0.05 m.
+
+``--no-swing-settle`` adds the old definition for comparison (``settle_swing_rad`` = 10 rad: the
+swing never holds a run up, the tip alone decides): its settle time, ratio and residual swing per row.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from motionlib import ExecuteOptions, Library, execute
+from motionlib.sim.loop import LoopOptions
+
+#: The issue's targets: settle ratio median and max, overshoot (m).
+TARGET_RATIO_MEDIAN, TARGET_RATIO_MAX, TARGET_OVERSHOOT_M = 1.15, 1.35, 0.05
+#: ``settle_swing_rad`` of the comparison: above pi, so the swing never holds a run up.
+NO_SWING_RAD = 10.0
+TIME_LIMIT_S = 40.0
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """One run's measures (s, s, -, m, rad)."""
+
+    planned_s: float
+    settle_s: float
+    ratio: float
+    overshoot_m: float
+    swing_rad: float
+    settled: bool
+
+
+def spread_rows(n_rows: int, n: int) -> np.ndarray:
+    """``n`` row indices (distinct, increasing) evenly spaced over ``n_rows`` rows (all of them when fewer)."""
+    return np.unique(np.round(np.linspace(0, n_rows - 1, min(n, n_rows))).astype(int))
+
+
+def run_row(lib: Library, row: int, settle_swing_rad: float) -> Outcome:
+    """Execute library row ``row`` in M6 with the passive operator; its measures."""
+    loop = LoopOptions(settle_swing_rad=settle_swing_rad)
+    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive",
+                  options=ExecuteOptions(seed=0, time_limit_s=TIME_LIMIT_S, loop=loop))
+    s = run.summary
+    if s.planned_duration_s is None or s.settle_ratio is None or s.overshoot_m is None:
+        raise RuntimeError("a library row's run has a trajectory, so its summary has these")
+    return Outcome(s.planned_duration_s, s.cycle_time_s, s.settle_ratio, s.overshoot_m, s.residual_swing_rad,
+                   run.settled)
+
+
+def _verdict(value: float, target: float) -> str:
+    return "meets" if value <= target else "MISSES"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--library", type=Path, default=Path("libraries/log-loading.h5"), help="motion library")
+    parser.add_argument("--rows", type=int, default=20, help="rows to run, evenly spaced over the library (>= 1)")
+    parser.add_argument("--no-swing-settle", action="store_true",
+                        help="also run each row with the old settle definition (tip speed only) for comparison")
+    args = parser.parse_args()
+    if args.rows < 1:
+        parser.error("--rows: expected >= 1")
+    lib = Library.open(args.library)
+    rows = spread_rows(len(lib), args.rows)
+    swing_tol = LoopOptions().settle_swing_rad
+    print(f"library {args.library}: {len(lib)} rows, running {rows.size}; M6, passive operator, default plant, "
+          f"seed 0, time limit {TIME_LIMIT_S:g} s; settled = tip < {LoopOptions().settle_speed_m_s:g} m/s and "
+          f"swing < {swing_tol:g} rad for {LoopOptions().settle_hold_s:g} s")
+    header = (f"{'row':>5} {'planned s':>9} {'settle s':>8} {'ratio':>6} {'overshoot m':>11} {'swing rad':>9} "
+              f"{'settled':>7}")
+    if args.no_swing_settle:
+        header += f" | {'tip-only s':>10} {'ratio':>6} {'swing rad':>9} {'settled':>7}"
+    print(header)
+    print("-" * len(header))
+    new, old = [], []
+    t0 = time.perf_counter()
+    for row in rows.tolist():
+        o = run_row(lib, row, swing_tol)
+        new.append(o)
+        line = (f"{row:5d} {o.planned_s:9.2f} {o.settle_s:8.2f} {o.ratio:6.2f} {o.overshoot_m:11.3f} "
+                f"{o.swing_rad:9.3f} {'yes' if o.settled else 'NO':>7}")
+        if args.no_swing_settle:
+            b = run_row(lib, row, NO_SWING_RAD)
+            old.append(b)
+            line += f" | {b.settle_s:10.2f} {b.ratio:6.2f} {b.swing_rad:9.3f} {'yes' if b.settled else 'NO':>7}"
+        print(line, flush=True)
+    print("-" * len(header))
+    _print_totals("swing-settled", new)
+    if old:
+        _print_totals("tip-only (old)", old)
+    print(f"({time.perf_counter() - t0:.0f} s wall)")
+
+
+def _print_totals(name: str, outcomes: list[Outcome]) -> None:
+    ratio = np.array([o.ratio for o in outcomes])
+    over = np.array([o.overshoot_m for o in outcomes])
+    settled = sum(o.settled for o in outcomes)
+    med, worst, over_max = float(np.median(ratio)), float(ratio.max()), float(over.max())
+    print(f"{name}: ratio median {med:.2f} ({_verdict(med, TARGET_RATIO_MEDIAN)} <= {TARGET_RATIO_MEDIAN}), "
+          f"max {worst:.2f} ({_verdict(worst, TARGET_RATIO_MAX)} <= {TARGET_RATIO_MAX}); overshoot max "
+          f"{over_max:.3f} m ({_verdict(over_max, TARGET_OVERSHOOT_M)} <= {TARGET_OVERSHOOT_M} m); "
+          f"settled {settled}/{len(outcomes)}")
+
+
+if __name__ == "__main__":
+    main()
