@@ -209,6 +209,8 @@ def test_traded_mode_ignores_the_operator_until_abort(planned):
 # and without the swing damping, which moves the tip with the swinging grapple
 KINEMATIC_PLANT = SimParams(model="first_order", load_mass_kg=0.0)
 NO_SWING_DAMPING = ControllerParams(swing_damping=0.0)
+#: The settle rule without the grapple's swing (above pi: never holds a run up), the tip alone decides.
+TIP_ONLY = {"settle_swing_rad": 10.0}
 
 
 def test_manual_cartesian_moves_the_tip_as_the_stick_says(lab):
@@ -313,10 +315,13 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     ctl = SharedController(crane, "M6", NO_SWING_DAMPING)
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], KINEMATIC_PLANT)
-    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=2 * traj.duration_s))
+    # the tip's tracking is measured here, so the run ends at the tip's rest (the swing is left out of the
+    # settle rule, TIP_ONLY): on this plant the undamped grapple swings on for ~15 s after the tip has stopped
+    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=2 * traj.duration_s, **TIP_ONLY))
     arr = res.log.arrays(crane)
     arrival = [e.t for e in res.log.events if e.name == "arrival"]
     assert res.settled and len(arrival) == 1
+    assert arr["swing_rad"][-1] > LoopOptions().settle_swing_rad  # why: still swinging at the tip's rest
     assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
     spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
     assert path_deviation(arr["tip_p"], spline).max() < 0.02
@@ -332,11 +337,11 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 
 
-def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams):
+def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams, **loop):
     ctl = SharedController(crane, "M6", controller)
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], plant)
-    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=6 * traj.duration_s))
+    res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=6 * traj.duration_s, **loop))
     return res, float(np.max(res.log.arrays(crane)["swing_rad"]))
 
 
@@ -347,10 +352,12 @@ def test_planned_motion_settles_on_the_hydraulic_plant_with_the_swinging_load(wh
     load does not act back, under a controller without swing damping (the reference, run here).
     Without the swing damping and the loaded-joint gain cap the same runs settled after 2.6x and
     4.6x the planned duration, the grapple swinging more than on the reference (with them: 1.8x,
-    2.3x; the first-order reference 1.03x; planner version 3)."""
+    2.3x; the first-order reference 1.03x; planner version 3). The run settles with the grapple's
+    swing (LoopOptions.settle_swing_rad); the reference's time is its tip's rest (TIP_ONLY): its
+    undamped grapple swings on for ~15 s more, so with the swing rule it takes >3x the plan."""
     crane, _, traj = request.getfixturevalue(which)
     res, swing = _passive_run(crane, traj, ControllerParams(), SimParams())
-    ref, ref_swing = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams(model="first_order"))
+    ref, ref_swing = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams(model="first_order"), **TIP_ONLY)
     assert ref.settled and ref.cycle_time_s < 1.2 * traj.duration_s
     assert res.settled and res.cycle_time_s < 2.5 * traj.duration_s
     assert [e.name for e in res.log.events] == ["motion_start", "arrival"]

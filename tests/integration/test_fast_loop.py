@@ -3,7 +3,8 @@
 The reference is the per-step objects driven by Python (``LoopOptions(compiled=False)``): the
 controller's ``step``, the operator's ``input`` and the simulated crane's ``advance``. The compiled
 loop must give the same run to the last bit: every log row, every event with its time and detail,
-the settled time, and the objects' states at the end, through every way a segment returns to Python
+the settled time (tip at rest and grapple swing below its tolerance), and the objects' states at the end,
+through every way a segment returns to Python
 (the obstacle guard's fcl distance, a takeover, an abort, a longer perception buffer, more noise).
 """
 
@@ -110,6 +111,28 @@ def test_any_run_is_the_same_compiled(setting, mode, operator, which, seed, guar
     _assert_same_run(*runs)
 
 
+@pytest.mark.parametrize("settle_swing_rad", [0.03, 0.08, 10.0])
+def test_the_swing_settle_rule_is_the_same_compiled(setting, settle_swing_rad):
+    """The grapple let go off the vertical on the default plant (the load pulls the tip), no swing damping,
+    hands off: the swing, not the tip, decides when the run settles (10 rad: the tip alone); the compiled
+    loop ends it at the same step as Python."""
+    crane, scene, trajs = setting
+    runs = []
+    for compiled in (False, True):
+        opts = ExecuteOptions(seed=2, obstacle_guard=False, controller=ControllerParams(swing_damping=0.0))
+        ctl, plant = prepare_run(crane, scene, "M6", trajs["out"].q[0], options=opts)
+        plant.set_grapple((0.1, 0.05, -0.5), (0.0, 0.1, 0.0))
+        op = PassiveOperator()
+        loop = LoopOptions(time_limit_s=20.0, settle_swing_rad=settle_swing_rad, compiled=compiled)
+        runs.append((run_closed_loop(ctl, plant, op, loop), ctl, plant, op))
+    _assert_same_run(*runs)
+    res = runs[1][0]
+    swing_end = res.log.arrays()["swing_rad"][-1]
+    assert res.settled and swing_end < settle_swing_rad
+    if settle_swing_rad == 10.0:  # the tip settled first, the grapple still swinging
+        assert swing_end > 0.03
+
+
 def test_compiled_loop_grows_its_buffers_like_python(setting):
     """A slow reaction (2 s: more steps than a new perception buffer holds) and flow noise in the
     plant (its normals run out every 256 steps): both are refilled between segments, in order."""
@@ -173,7 +196,8 @@ def test_array_layouts_match_their_names():
                              "za1": fast_loop.W_ZA, "has_za": fast_loop.W_HAS_ZA, "deviation": fast_loop.W_DEV,
                              "dist_end": fast_loop.W_DIST_END, "speed_o": fast_loop.W_SPEED_O,
                              "auto": fast_loop.W_AUTO, "pg_x": fast_loop.W_PG, "c_o": fast_loop.W_C_O}),
-        (fast_loop.CONFIG, {"n_max": fast_loop.L_N_MAX, "dt": fast_loop.L_DT, "has_model": fast_loop.L_MODEL}),
+        (fast_loop.CONFIG, {"n_max": fast_loop.L_N_MAX, "dt": fast_loop.L_DT, "has_model": fast_loop.L_MODEL,
+                            "settle_v2": fast_loop.L_SETTLE_V2, "settle_swing": fast_loop.L_SETTLE_SWING}),
     ]
     for names, offsets in layouts:
         assert len(set(names)) == len(names)

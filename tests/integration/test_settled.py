@@ -1,0 +1,110 @@
+"""A run is settled when the tip is at rest AND the grapple has stopped swinging (issue 22 item 4).
+
+References are computed here with numpy from the run log's own arrays (the logged swing and the
+tip velocity ``J(q) qd``), and from the crane's forward kinematics of the logged and planned joint
+positions, not by the code under test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionlib import Crane, ExecuteOptions, Scene, execute, plan
+from motionlib.control.control_types import ControllerParams
+from motionlib.control.metrics import run_summary
+from motionlib.sim.execute import prepare_run
+from motionlib.sim.loop import LoopOptions, run_closed_loop
+from motionlib.sim.operators import PassiveOperator
+from motionlib.sim.plant import SimParams
+
+SCENE = "obstacles/log-loading.yaml"
+Q0 = np.array([0.3, 0.5, -0.4, 0.3])
+
+
+@pytest.fixture(scope="module")
+def lab():
+    return Crane.load("lab"), Scene.load(SCENE)
+
+
+def _swinging_run(lab, settle_swing_rad: float, compiled: bool = True):
+    """The first-order plant (the load does not pull the tip) with the grapple let go 0.1 m off the vertical,
+    the passive operator and no automation: the tip stays still from the start while the grapple swings."""
+    crane, scene = lab
+    opts = ExecuteOptions(obstacle_guard=False, controller=ControllerParams(swing_damping=0.0),
+                          sim=SimParams(model="first_order"))
+    ctl, sim = prepare_run(crane, scene, "M6", Q0, options=opts)
+    sim.set_grapple((0.1, 0.0, -0.5))
+    loop = LoopOptions(time_limit_s=30.0, settle_swing_rad=settle_swing_rad, compiled=compiled)
+    return run_closed_loop(ctl, sim, PassiveOperator(), loop), loop
+
+
+def _first_settled_index(ok: np.ndarray, hold: int) -> int | None:
+    """First k with ok[k:k + hold] all true (None if there is none)."""
+    runs = np.convolve(ok.astype(int), np.ones(hold, dtype=int), mode="valid")
+    hits = np.flatnonzero(runs == hold)
+    return int(hits[0]) if hits.size else None
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_still_tip_with_a_swinging_grapple_is_not_settled_until_the_swing_decays(lab, compiled):
+    crane, _ = lab
+    res, loop = _swinging_run(lab, 0.03, compiled)
+    a = res.log.arrays(crane)
+    speed = np.linalg.norm(a["tip_v"], axis=1)
+    swing = a["swing_rad"]
+    hold = int(np.ceil(loop.settle_hold_s / res.dt_s))
+    # the tip was still all along, the grapple was swinging well above the tolerance at the start
+    assert speed.max() < loop.settle_speed_m_s and swing[0] > 0.15
+    k = _first_settled_index((speed < loop.settle_speed_m_s) & (swing < loop.settle_swing_rad), hold)
+    assert res.settled and k is not None
+    assert res.cycle_time_s == pytest.approx(a["t"][k], abs=1e-9)
+    assert len(a["t"]) == k + hold  # the run ends when the window is complete
+    assert res.cycle_time_s > 3.0  # the swing took seconds to decay (tip-only: settled at once, below)
+    s = run_summary(a, res.log.events, crane.fk(Q0), res.cycle_time_s, settled=res.settled)
+    assert s.residual_swing_rad == swing[k] and s.residual_swing_rad < loop.settle_swing_rad
+    assert s.overshoot_m is None and s.settle_ratio is None  # no trajectory
+
+
+def test_the_tip_only_rule_would_have_ended_the_same_run_at_once_swinging(lab):
+    crane, _ = lab
+    res, loop = _swinging_run(lab, 10.0)  # above pi: the swing never holds the run up
+    a = res.log.arrays(crane)
+    hold = int(np.ceil(loop.settle_hold_s / res.dt_s))
+    assert res.settled and res.cycle_time_s == pytest.approx(0.0, abs=1e-9) and len(a["t"]) == hold
+    s = run_summary(a, res.log.events, crane.fk(Q0), res.cycle_time_s, settled=res.settled)
+    assert s.residual_swing_rad == a["swing_rad"][0] > 0.15
+
+
+def test_a_looser_swing_tolerance_settles_sooner(lab):
+    crane, _ = lab
+    tight, _ = _swinging_run(lab, 0.03)
+    loose, loop = _swinging_run(lab, 0.08)
+    a = loose.log.arrays(crane)
+    k = _first_settled_index(a["swing_rad"] < 0.08, int(np.ceil(loop.settle_hold_s / loose.dt_s)))
+    assert k is not None and loose.cycle_time_s == pytest.approx(a["t"][k], abs=1e-9)
+    assert 0.0 < loose.cycle_time_s < tight.cycle_time_s
+
+
+def test_overshoot_against_the_logged_tip_path(lab):
+    """A planned motion in M6 with the passive operator: the tip goes past the end point while the swing is
+    stopped (docs/runtime.md); the overshoot from the crane's forward kinematics of the logged and planned joints."""
+    crane, scene = lab
+    traj = plan(crane, scene, "target-center", "pickup-between").raise_for_status().trajectory
+    run = execute(traj, crane, scene, mode="M6", operator="passive", options=ExecuteOptions(time_limit_s=40.0))
+    assert run.settled
+    end = crane.fk(traj.q[-1])
+    u = end - crane.fk(traj.q[-5])  # the planned motion's final direction (it ends at rest along its path)
+    u /= np.linalg.norm(u)
+    tip = np.array([crane.fk(q) for q in run.log.arrays()["q"]])
+    dist = np.linalg.norm(tip - end, axis=1)
+    first = int(np.argmax(dist <= 0.5))
+    assert dist[first] <= 0.5
+    expected = max(0.0, float(np.max((tip[first:] - end) @ u)))
+    s = run.summary
+    assert expected > 0.02  # the run does overshoot: the check is not 0 == 0
+    assert s.overshoot_m == pytest.approx(expected, abs=1e-3)
+    assert s.settle_ratio == pytest.approx(s.cycle_time_s / traj.duration_s, rel=1e-12)
+    assert s.settle_ratio > 1.0
+    k = int(np.searchsorted(run.arrays["t"], s.cycle_time_s - 1e-9))
+    assert s.residual_swing_rad == run.arrays["swing_rad"][k] < 0.03
