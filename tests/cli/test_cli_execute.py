@@ -18,7 +18,7 @@ from motionlib.planning.planner import Planner
 
 JSON_KEYS = (
     "cycle_time_s", "final_error_m", "total_jerk", "peak_acceleration_m_s2", "max_deviation_m", "handover_time_s",
-    "peak_swing_rad", "log",
+    "peak_swing_rad", "residual_swing_rad", "overshoot_m", "settle_ratio", "log",
 )
 
 
@@ -66,6 +66,10 @@ def test_passive_m6_json_summary_and_run_log(library, tmp_path: Path):
     # it stops the swing (docs/runtime.md; on the first-order plant without the load and without
     # the swing damping, tests/integration/test_controller.py asks < 2 cm)
     assert summary["max_deviation_m"] < 0.35
+    # settled = the tip at rest and the grapple's swing below LoopOptions.settle_swing_rad (0.03 rad)
+    assert summary["residual_swing_rad"] < 0.03
+    assert summary["settle_ratio"] == pytest.approx(summary["cycle_time_s"] / summary["planned_duration_s"])
+    assert summary["overshoot_m"] >= 0.0  # checked against the logged tip path in tests/integration/test_settled.py
     assert summary["log"] == str(log)
     run = read_runlog(log)
     assert run["attrs"]["summary"]["final_error_m"] == summary["final_error_m"]
@@ -96,6 +100,7 @@ def test_novice_in_m6_with_plots_and_text_output(library, tmp_path: Path):
                      "--mode", "m6", "--seed", "3", "--plot", str(tmp_path / "plots"))
     assert code == 0, out
     assert "cycle time" in out and "total jerk" in out and "peak swing" in out
+    assert "settle ratio" in out and "residual" in out and "overshoot" in out
     assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == ["path.png", "smoothness.png", "timeseries.png"]
 
 
