@@ -44,8 +44,8 @@ class LoopOptions:
         this (rad, > 0; a value above pi leaves the swing out, the tip alone decides) ...
     settle_hold_s : float
         ... for this long (s), with no automated motion running and the operator done. A step
-        counts with its logged tip speed (the plant's, over its last substep) and swing, measured
-        at the start of the step.
+        counts with the tip velocity the plant reports (over its last substep) and the swing it
+        logs, both at the start of the step.
     compiled : bool
         Run the steps after the first compiled where the run allows it (:mod:`motionlib.sim.fast_loop`;
         the results are the same); False: every step in Python.
