@@ -440,12 +440,15 @@ def test_the_wall_clock_cap_fails_loudly_and_never_answers():
 
     from motionlib.errors import PlanningError, PlanningTimeout
 
-    def slow(p):
-        time.sleep(1e-3)
-        return outside_sphere(p)
+    centre = np.array([1.0, 0.0, 1.0])
 
-    with pytest.raises(PlanningTimeout, match="wall-clock cap") as info:
-        plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], slow, opts(seed=5, time_limit_s=0.02))
+    def slow_shell(p):  # the goal is enclosed (no solution), and each check takes 1 ms
+        time.sleep(1e-3)
+        r = np.linalg.norm(p - centre)
+        return bool(r < 0.3 or r > 0.5)
+
+    with pytest.raises(PlanningTimeout, match="wall-clock cap") as info:  # 3000 checks would take >= 3 s
+        plan_tip_path([-2.0, 0.0, 1.0], centre, slow_shell, opts(seed=5, time_limit_s=0.2))
     assert isinstance(info.value, PlanningError) and info.value.stage == "path"
 
 
