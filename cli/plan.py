@@ -30,14 +30,21 @@ from .output import emit_json
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0), help="Seed of the path planner.")
 @click.option("--planner", default="RRTConnect", show_default=True, help="OMPL planner.")
 @click.option(
+    "--max-checks",
+    default=None,
+    type=click.IntRange(min=1, max=int(PLANNER_RANGES["max_checks"].hard_hi)),
+    help="Budget of the tip-path search: validity checks (the same answer on any machine); "
+    "default PlanOptions.max_checks.",
+)
+@click.option(
     "--time-limit",
-    default=2.0,
+    default=60.0,
     show_default=True,
     type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
-    help="Path-planning time budget (s).",
+    help="Wall-clock cap of the tip-path search (s): reaching it fails the plan (status timeout).",
 )
 def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, plot_dir, seed, planner,
-         time_limit) -> None:
+         max_checks, time_limit) -> None:
     """Plan a collision-free, near time-optimal trajectory (path, telescope profile, timing, verification)."""
     from motionlib import Crane, PlanOptions, Scene
     from motionlib import plan as plan_motion
@@ -45,7 +52,9 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
 
     crane = Crane.load(crane_name)
     scene = Scene.load(scene_file)
-    options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit, goal_log_yaw=log_yaw)
+    budget = {} if max_checks is None else {"max_checks": max_checks}
+    options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit, goal_log_yaw=log_yaw,
+                          **budget)
     n_start = 5 if crane.rotator is not None and start.count(",") == 4 else 4
     start_q = parse_csv_floats(start, n_start, "--start", VECTOR_LIMIT) if "," in start else start
     goal_p = parse_csv_floats(goal, 3, "--goal", VECTOR_LIMIT) if "," in goal else goal

@@ -46,6 +46,15 @@ class PlanningError(MotionlibError, RuntimeError):
         self.reason = reason
 
 
+class PlanningTimeout(PlanningError):
+    """A search ran into its wall-clock cap before its deterministic budget was spent.
+
+    Budgets are counted in iterations (validity checks), so results do not depend on the
+    machine's speed or load; a wall-clock cap only guards against a search that runs away, and
+    hitting it is a failure of its own (``PlanStatus.TIMEOUT``), never a different answer.
+    """
+
+
 class LibraryFileError(MotionlibError, OSError):
     """A motion-library, plan or run-log file is missing, corrupt or incompatible.
 

@@ -27,10 +27,11 @@ key) and the planner restarts OMPL's generators from it for every query, so an
 entry's trajectory does not depend on the worker, the scheduling or an
 interruption: a resumed build has the content of an uninterrupted one, and the
 Dask path that of the local pool. Only wall-clock records differ (``plan_time_s``,
-per-stage ``time_s`` inside the trajectories' ``stages`` attribute, ``build``). An
-entry that hits the path planner's time limit (``planner.time_limit_s``) on a
-loaded machine may fail where it succeeds on an idle one; anytime planners
-(``RRTstar``...) are not deterministic at all.
+per-stage ``time_s`` inside the trajectories' ``stages`` attribute, ``build``). The OMPL
+searches stop after a budget of validity checks (``planner.max_checks``), not after a time, so a
+loaded machine plans the same entries; the wall-clock cap (``planner.time_limit_s``) can only
+turn an entry into a failure (status ``timeout``). Anytime planners (``RRTstar``...) spend
+their whole budget improving the path, deterministically too.
 """
 
 from __future__ import annotations

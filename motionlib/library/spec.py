@@ -53,6 +53,7 @@ GRID_SPACING_M = Plausible(0.01, 100.0, 1e-4, 1e4, "m")
 #: sample periods and spacings the memory.
 PLANNER_RANGES: dict[str, Plausible] = {
     "time_limit_s": Plausible(1e-3, 600.0, 1e-3, 86_400.0, "s"),
+    "max_checks": Plausible(100, 1_000_000, 1, 100_000_000, "checks"),
     "dt_s": Plausible(1e-3, 0.05, 1e-4, 1.0, "s"),
     "verify_tip_spacing_m": Plausible(1e-3, 0.5, 1e-4, 10.0, "m"),
     "check_step_m": Plausible(1e-3, 1.0, 1e-4, 10.0, "m"),

@@ -48,8 +48,11 @@ class JointPathOptions:
     ----------
     planner : str
         OMPL geometric planner.
+    max_checks : int
+        OMPL's budget per goal configuration: state-validity checks (deterministic).
     time_limit_s : float
-        OMPL time budget per goal configuration (s).
+        Wall-clock cap (s) per goal configuration: hitting it fails the plan
+        (:class:`~motionlib.errors.PlanningTimeout`), it never gives another answer.
     resolution_s : float
         Validity-check spacing of straight motions in time-scaled coordinates (s of motion at
         the velocity limits); 0.02 s is at most 10 mrad of slew on the shipped cranes (at most
@@ -64,7 +67,8 @@ class JointPathOptions:
     """
 
     planner: str = "RRTConnect"
-    time_limit_s: float = 0.5
+    max_checks: int = 2_000
+    time_limit_s: float = 30.0
     resolution_s: float = 0.02
     subdivide_s: float = 0.05
     shortcut_only: bool = True
@@ -158,7 +162,8 @@ def plan_joint_path(
         crane.q_max / scale,
         lambda x: is_valid(x * scale),
         planner=options.planner,
-        time_limit_s=options.time_limit_s,
+        max_checks=options.max_checks,
+        wall_cap_s=options.time_limit_s,
         seed=seed,
         resolution=options.resolution_s,
         simplify=True,
@@ -168,7 +173,8 @@ def plan_joint_path(
     if waypoints is None:
         return JointPathResult(
             JointPathStatus.NO_EXACT_SOLUTION,
-            f"{options.planner} found no exact joint-space solution in {options.time_limit_s} s (OMPL: {status})",
+            f"{options.planner} found no exact joint-space solution in {options.max_checks} validity checks "
+            f"(OMPL: {status})",
             empty,
             options.planner,
             diag,

@@ -48,14 +48,16 @@ from ompl import base as ob
 from ompl import geometric as og
 from ompl import util as ou
 
-from ..checks import check_scalar, check_vector
-from ..errors import InputError
+from ..checks import check_int, check_scalar, check_vector
+from ..errors import InputError, PlanningTimeout
 from .spline import TipSpline
 
 #: Inserted repair waypoints closer than this (m) to an existing one are skipped.
 REPAIR_MIN_SEPARATION_M = 1e-4
 
 _OMPL_LOCK = threading.Lock()
+#: Default search budget of the tip-space path (state-validity checks).
+DEFAULT_PATH_CHECKS = 10_000
 _OMPL_SEED_MAX = 2**32 - 2  # OMPL seeds are uint32 and must be > 0: OMPL seed = seed + 1
 
 
@@ -88,8 +90,11 @@ class PathOptions:
     ----------
     planner : str
         OMPL geometric planner class name (see :func:`available_planners`).
+    max_checks : int
+        The search's budget: state-validity checks (deterministic, :func:`solve_ompl`).
     time_limit_s : float
-        Planning time limit (s).
+        Wall-clock cap (s) of the search: hitting it is a failure (``PlanningTimeout``), never
+        another answer.
     seed : int
         Seed of OMPL's random generators, ``0 <= seed <= 2**32 - 2``.
     validity_resolution_m : float
@@ -107,7 +112,8 @@ class PathOptions:
     """
 
     planner: str = "RRTConnect"
-    time_limit_s: float = 1.0
+    max_checks: int = DEFAULT_PATH_CHECKS
+    time_limit_s: float = 60.0
     seed: int = 0
     validity_resolution_m: float = 0.05
     simplify: bool = True
@@ -121,6 +127,7 @@ class PathOptions:
         if not isinstance(self.planner, str) or self.planner not in available_planners():
             raise InputError(f"planner: expected one of {', '.join(available_planners())}, got {self.planner!r}")
         check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
+        check_int(self.max_checks, "max_checks", lo=1)
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer):
             raise InputError(f"seed: expected an integer, got {self.seed!r}")
         if not 0 <= int(self.seed) <= _OMPL_SEED_MAX:
@@ -246,6 +253,7 @@ def plan_tip_path(
         "planning_time_s": 0.0,
         "simplify_time_s": 0.0,
         "spline_time_s": 0.0,
+        "n_search_checks": 0,
         "n_raw_waypoints": 0,
         "n_waypoints": 0,
         "repairs": 0,
@@ -265,7 +273,7 @@ def plan_tip_path(
     if waypoints is None:
         return PathResult(
             PathStatus.NO_EXACT_SOLUTION,
-            f"{opts.planner} found no exact solution in {opts.time_limit_s} s (OMPL: {ompl_status})",
+            f"{opts.planner} found no exact solution in {opts.max_checks} validity checks (OMPL: {ompl_status})",
             empty,
             None,
             diag,
@@ -297,7 +305,8 @@ def _ompl_plan(
         opts.upper_m,
         is_valid,
         planner=opts.planner,
-        time_limit_s=opts.time_limit_s,
+        max_checks=opts.max_checks,
+        wall_cap_s=opts.time_limit_s,
         seed=int(opts.seed),
         resolution=opts.validity_resolution_m,
         simplify=opts.simplify,
@@ -313,7 +322,8 @@ def solve_ompl(
     is_valid: Callable[[np.ndarray], bool],
     *,
     planner: str,
-    time_limit_s: float,
+    max_checks: int,
+    wall_cap_s: float,
     seed: int,
     resolution: float,
     simplify: bool,
@@ -328,20 +338,43 @@ def solve_ompl(
     by ``simplifySolution`` when ``simplify`` (until no further improvement), or with
     ``shortcut_only`` by the path simplifier's ``reduceVertices`` and ``ropeShortcutPath`` alone (no
     B-spline smoothing, which is most of the cost when validity checks are expensive). Fills
-    ``planning_time_s``, ``simplify_time_s``, ``n_raw_waypoints``, ``n_waypoints`` of ``diag``.
+    ``planning_time_s``, ``simplify_time_s``, ``n_search_checks``, ``n_raw_waypoints``,
+    ``n_waypoints`` of ``diag``.
+
+    The search's budget is deterministic: it stops after ``max_checks`` state-validity checks
+    (an OMPL ``PlannerTerminationCondition`` that counts them), so the same inputs and seed give
+    the same answer on an idle or a loaded machine. ``wall_cap_s`` only guards against a search
+    that runs away: hitting it raises :class:`~motionlib.errors.PlanningTimeout`, it never
+    turns into another answer.
 
     Returns
     -------
     waypoints : ndarray, shape (n, d), or None
-        None when OMPL found no exact solution.
+        None when OMPL found no exact solution within the budget.
     status : str
         OMPL's planner status name.
+
+    Raises
+    ------
+    PlanningTimeout
+        The search ran longer than ``wall_cap_s`` (s) of wall-clock time without a solution.
     """
     dim = int(start.shape[0])
+    checks = [0]
 
     def ompl_valid(state: Any) -> bool:
+        checks[0] += 1
         # nanobind converts only a Python bool back to C++ bool (np.bool_ gives std::bad_cast)
         return bool(is_valid(np.array(state[0:dim])))
+
+    deadline = time.monotonic() + float(wall_cap_s)
+    capped = [False]
+
+    def stop() -> bool:
+        if checks[0] >= max_checks:
+            return True
+        capped[0] = time.monotonic() > deadline
+        return capped[0]
 
     with _OMPL_LOCK:
         previous_level = ou.getLogLevel()
@@ -367,9 +400,16 @@ def solve_ompl(
             setup.setStartAndGoalStates(s_state, g_state)
             setup.setPlanner(getattr(og, planner)(si))
 
-            status = setup.solve(float(time_limit_s))
+            status = setup.solve(ob.PlannerTerminationCondition(stop))
             diag["planning_time_s"] = float(setup.getLastPlanComputationTime())
+            diag["n_search_checks"] = int(checks[0])
             status_name = status.getStatus().name
+            if capped[0]:  # stopped by the wall clock, not by the budget or a solution: no answer
+                raise PlanningTimeout(
+                    "path",
+                    f"{planner} stopped by the {wall_cap_s:g} s wall-clock cap after {checks[0]} of its "
+                    f"{max_checks} validity checks",
+                )
             if not setup.haveExactSolutionPath():
                 return None, status_name
             diag["n_raw_waypoints"] = int(setup.getSolutionPath().getStateCount())

@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_vector
-from ..errors import InputError, PlanningError, UnreachableError
+from ..errors import InputError, PlanningError, PlanningTimeout, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import Limit, limits_for
@@ -67,7 +67,7 @@ from ..model.scene import Scene
 from .joint_to_tip import tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
 from .lower_bound import best_goal_telescope, lower_bound_s
-from .path import PathOptions, PathStatus, plan_tip_path, spline_check_grid
+from .path import DEFAULT_PATH_CHECKS, PathOptions, PathStatus, plan_tip_path, spline_check_grid
 from .redundancy import (
     RedundancyOptions,
     RedundancyStatus,
@@ -93,13 +93,15 @@ class PlanStatus(Enum):
     REDUNDANCY_FAILED = "redundancy"
     TIMING_FAILED = "timing"
     VERIFICATION_FAILED = "verification"
+    TIMEOUT = "timeout"  # a search ran into its wall-clock cap (never a different answer)
 
 
 #: Version of the planning pipeline, stored in every library build: a change that gives different
 #: trajectories for the same spec bumps it, so libraries built before are rebuilt.
 #: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins;
-#: 3: joint candidates are minimum-time joint motions (trajopt).
-PLANNER_VERSION = 3
+#: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
+#: validity checks, not seconds (the same answer on any machine and load).
+PLANNER_VERSION = 4
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -123,8 +125,13 @@ class PlanOptions:
         Seed of the path planner (same seed, same trajectory).
     planner : str
         OMPL planner name.
+    max_checks : int
+        The tip-space path search's budget: state-validity checks (deterministic; the joint-space
+        search has its own, ``jointspace.max_checks``).
     time_limit_s : float
-        Path-planning time budget (s).
+        Wall-clock cap (s) of the tip-space path search; a search that reaches it fails the plan
+        with ``PlanStatus.TIMEOUT`` (budgets are counted in checks, so the answer never depends
+        on the machine's load).
     clearance_m : float
         Clearance the grapple (and log) keeps from the scene along the path (m).
     arm_clearance_m : float
@@ -165,7 +172,8 @@ class PlanOptions:
     loaded: bool = False
     seed: int = 0
     planner: str = "RRTConnect"
-    time_limit_s: float = 2.0
+    max_checks: int = DEFAULT_PATH_CHECKS
+    time_limit_s: float = 60.0
     clearance_m: float = 0.10
     arm_clearance_m: float = 0.05
     reach_margin_rad: float = 0.04
@@ -341,7 +349,15 @@ class Planner:
         Returns
         -------
         PlanResult
+            ``PlanStatus.TIMEOUT`` when a search ran into its wall-clock cap.
         """
+        try:
+            return self._plan(start_q, goal_p)
+        except PlanningTimeout as exc:
+            return PlanResult(PlanStatus.TIMEOUT, exc.reason, None, {}, {})
+
+    def _plan(self, start_q: Any, goal_p: Any) -> PlanResult:
+        """:meth:`plan` without the wall-clock cap's translation into a result."""
         crane, o = self.crane, self.options
         start_full = self._full_start(start_q)
         start_q = start_full[:4]
@@ -386,7 +402,8 @@ class Planner:
         rejected_sources: dict[str, str] = {}
 
         # 1a. Tip-space path (today's source, kept so the result is never slower than it).
-        path_opts = PathOptions(planner=o.planner, time_limit_s=o.time_limit_s, seed=o.seed, bounds=self._bounds())
+        path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s, seed=o.seed,
+                                bounds=self._bounds())
         t0 = time.perf_counter()
         path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
         stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))

@@ -283,7 +283,7 @@ scene: {scene}
 seed: 1
 planner:
   planner: RRTConnect
-  time_limit_s: 2.0
+  max_checks: 10000
   clearance_m: 0.05
   arm_clearance_m: 0.03
 motions:

@@ -244,7 +244,7 @@ def test_no_path_within_budget(lab, lab_scene):
     }
     data["obstacles"] = [o for o in data["obstacles"] if o["name"] != "wall"] + [wall]
     walled = Scene.from_dict(data, "walled.yaml")
-    res = Planner(lab, walled, PlanOptions(time_limit_s=0.3)).plan(
+    res = Planner(lab, walled, PlanOptions(max_checks=300)).plan(
         walled.start("target-center"), walled.point("pickup-a")
     )
     assert res.status is PlanStatus.PATH_FAILED and "no exact solution" in res.reason

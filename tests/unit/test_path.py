@@ -77,7 +77,7 @@ def fd_speed(spline: TipSpline, n: int = 4001, h: float = 1e-5) -> np.ndarray:
 
 def opts(**kw) -> PathOptions:
     kw.setdefault("bounds", BOX)
-    kw.setdefault("time_limit_s", 0.5)
+    kw.setdefault("max_checks", 3000)
     return PathOptions(**kw)
 
 
@@ -106,7 +106,7 @@ def test_path_around_sphere_is_valid_unit_speed_and_exact_at_ends():
 
 def test_overshoot_into_obstacle_is_caught_and_repaired():
     start, goal = np.array([-1.9, 0.0, 1.0]), np.array([0.0, 1.9, 1.0])
-    o = opts(seed=0, time_limit_s=1.0, validity_resolution_m=0.01)
+    o = opts(seed=0, validity_resolution_m=0.01)
     res = plan_tip_path(start, goal, in_l_corridor, o)
     assert res.status is PathStatus.OK
     # the plain fit through OMPL's waypoints leaves the corridor (so this test can fail) ...
@@ -122,7 +122,7 @@ def test_overshoot_into_obstacle_is_caught_and_repaired():
 
 
 def test_overshoot_without_repairs_allowed_fails_with_status():
-    o = opts(seed=0, time_limit_s=1.0, validity_resolution_m=0.01, max_repairs=0)
+    o = opts(seed=0, validity_resolution_m=0.01, max_repairs=0)
     res = plan_tip_path([-1.9, 0.0, 1.0], [0.0, 1.9, 1.0], in_l_corridor, o)
     assert res.status is PathStatus.SPLINE_REPAIR_FAILED
     assert res.spline is None and res.waypoints.shape[0] >= 2
@@ -136,12 +136,12 @@ def test_goal_enclosed_in_shell_gives_no_exact_solution_and_no_path():
         r = np.linalg.norm(p - centre)
         return bool(r < 0.3 or r > 0.5)
 
-    res = plan_tip_path([-2.0, 0.0, 1.0], centre, outside_shell, opts(seed=0, time_limit_s=0.5))
+    res = plan_tip_path([-2.0, 0.0, 1.0], centre, outside_shell, opts(seed=0))
     assert res.status is PathStatus.NO_EXACT_SOLUTION
     assert res.status is PathStatus.TIMEOUT  # alias
     assert not res.ok and res.spline is None and res.waypoints.shape == (0, 3)
     assert res.diagnostics["ompl_status"] in {"TIMEOUT", "APPROXIMATE_SOLUTION"}
-    assert res.diagnostics["planning_time_s"] >= 0.4
+    assert res.diagnostics["n_search_checks"] >= 3000  # the whole budget was spent
 
 
 @pytest.mark.parametrize(
@@ -183,7 +183,7 @@ def test_first_solution_planners_are_reproducible(planner):
 @pytest.mark.parametrize("planner", ["RRTstar", "BITstar", "PRM", "KPIECE1"])
 def test_planner_selection_by_name(planner):
     assert planner in available_planners()
-    res = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], outside_sphere, opts(planner=planner, time_limit_s=0.25))
+    res = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], outside_sphere, opts(planner=planner, max_checks=6000))
     assert res.ok, res.reason
     assert res.diagnostics["planner"] == planner
     assert dense_invalid_count(res.spline, outside_sphere, 0.01) == 0
@@ -401,3 +401,57 @@ def test_check_grid_spacing():
     s = spline_check_grid(sp, 0.01)
     assert s[0] == 0.0 and s[-1] == sp.length
     assert np.max(np.diff(s)) <= 0.01 + 1e-15
+
+
+# ------------------------------------------------------------ deterministic budget
+def test_a_slow_machine_plans_the_same_path():
+    """The search's budget is counted in validity checks: a checker 50x slower gives the same answer.
+
+    The slow checker stands in for a loaded CI machine; with a budget in seconds (the earlier
+    ``time_limit_s``) the two runs could differ or one could fail.
+    """
+    import time
+
+    start, goal = np.array([-2.0, 0.0, 1.0]), np.array([2.0, 0.0, 1.0])
+
+    def slow(p):
+        time.sleep(2e-5)
+        return outside_sphere(p)
+
+    fast = plan_tip_path(start, goal, outside_sphere, opts(seed=5))
+    slowed = plan_tip_path(start, goal, slow, opts(seed=5))
+    assert fast.ok and slowed.ok
+    np.testing.assert_array_equal(fast.waypoints, slowed.waypoints)
+    assert fast.diagnostics["n_search_checks"] == slowed.diagnostics["n_search_checks"]
+
+
+def test_an_anytime_planner_spends_its_budget_deterministically():
+    """RRT* improves its path until the budget of checks is spent: the same path twice, whatever the speed."""
+    a = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], outside_sphere, opts(planner="RRTstar", max_checks=6000))
+    b = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], outside_sphere, opts(planner="RRTstar", max_checks=6000))
+    assert a.ok and b.ok
+    assert a.diagnostics["n_search_checks"] >= 6000
+    np.testing.assert_array_equal(a.waypoints, b.waypoints)
+
+
+def test_the_wall_clock_cap_fails_loudly_and_never_answers():
+    """A search stopped by the wall-clock cap raises PlanningTimeout (no path, not a shorter search's path)."""
+    import time
+
+    from motionlib.errors import PlanningError, PlanningTimeout
+
+    centre = np.array([1.0, 0.0, 1.0])
+
+    def slow_shell(p):  # the goal is enclosed (no solution), and each check takes 1 ms
+        time.sleep(1e-3)
+        r = np.linalg.norm(p - centre)
+        return bool(r < 0.3 or r > 0.5)
+
+    with pytest.raises(PlanningTimeout, match="wall-clock cap") as info:  # 3000 checks would take >= 3 s
+        plan_tip_path([-2.0, 0.0, 1.0], centre, slow_shell, opts(seed=5, time_limit_s=0.2))
+    assert isinstance(info.value, PlanningError) and info.value.stage == "path"
+
+
+def test_max_checks_is_checked():
+    with pytest.raises(InputError, match="max_checks"):
+        opts(max_checks=0)
