@@ -171,7 +171,7 @@ def test_pump_saturation_shares_flow_proportionally(lab):
     assert k < 0.6  # the pump does saturate
     for model in ("second_order", "first_order"):
         prm = SimParams(model=model, load_mass_kg=0.0, deadband_frac=0.0)
-        sim = SimulatedCrane(lab, Q_MID, prm)
+        sim = SimulatedCrane(lab, [0.0, 0.5, -1.4, 0.7], prm)  # the telescope retracts 0.57 m in 3 s
         # 3 s: the slew's oil spring (omega 7.1 rad/s, zeta 0.35) rings as exp(-zeta omega t): 2.4 % left at 1.5 s,
         # 0.06 % at 3 s (with the former single 2.5 Hz, 1.5 s sufficed)
         _, v = _velocities(sim, u, 3.0)
