@@ -260,7 +260,8 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     joints : ndarray, shape (5, n)
         The actuators' state (:class:`~motionlib.sim.hydraulics.HydraulicJoints`).
     alpha, second_order, w2, zw2, a_relief, displacement, pump_flow
-        The actuators' parameters (``w2``, ``zw2``: arrays (n,), each joint's ``omega_i^2``, ``2 zeta omega_i``) (:func:`~motionlib.sim.hydraulics.actuators_substep`).
+        The actuators' parameters (:func:`~motionlib.sim.hydraulics.actuators_substep`; ``w2``, ``zw2``:
+        arrays (n,), each joint's ``omega_i^2`` and ``2 zeta omega_i``).
     q_min, q_max : ndarray, shape (n,)
         End stops (rad, m).
     at_stop : ndarray of bool, shape (n,)
@@ -613,8 +614,9 @@ class SimulatedCrane:
             per_joint = (2.0 * math.pi * hz,) * self._n
         self.omega_rad_s: tuple[float, ...] = tuple(float(w) for w in per_joint)
         if max(self.omega_rad_s) > 2.0 * math.pi * 100.0:  # SimParams.natural_freq_hz's bound (stable 1 kHz step)
-            raise InputError(f"crane {crane.name!r}: a joint's natural frequency "
-                             f"{max(self.omega_rad_s) / (2.0 * math.pi):.4g} Hz is above 100 Hz (joint_inertia too small)")
+            top = max(self.omega_rad_s) / (2.0 * math.pi)
+            raise InputError(f"crane {crane.name!r}: a joint's natural frequency {top:.4g} Hz is above 100 Hz "
+                             "(joint_inertia too small)")
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
             valve_tau_s=prm.tau_s, omega_rad_s=self.omega_rad_s, damping_ratio=prm.damping_ratio,
@@ -635,7 +637,8 @@ class SimulatedCrane:
         clock[[C_T, C_SHARE, C_H_LAST]] = t0, 1.0, h
         self.arrays = PlantArrays(
             valve, np.array([float(values[k]) for k in PLANT_PARAMS]), clock, np.zeros(0), np.zeros(self._n),
-            j.state, j.a_relief, j.w2, j.zw2, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool), self._g, pend,
+            j.state, j.a_relief, j.w2, j.zw2, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool),
+            self._g, pend,
             inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
         )
         self.set_payload(self.payload_frac)

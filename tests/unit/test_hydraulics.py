@@ -107,7 +107,8 @@ def test_crane_file_gives_the_documented_frequencies(path):
 
 
 def test_single_frequency_without_oil_data_or_when_given(tmp_path):
-    """A crane file without oil data keeps one frequency for every joint (2.5 Hz); natural_freq_hz overrides the file."""
+    """A crane file without oil data keeps one frequency for every joint (2.5 Hz); natural_freq_hz overrides
+    the file."""
     raw = yaml.safe_load((CRANES_DIR / "lab.yaml").read_text())
     del raw["hydraulics"]["bulk_modulus"], raw["hydraulics"]["oil_volume"]
     path = tmp_path / "old-lab.yaml"
