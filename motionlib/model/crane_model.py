@@ -69,7 +69,7 @@ def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_vol
                             inertia: float) -> float:
     """Hydraulic natural frequency ``omega = sqrt(4 beta d^2 / (V I))`` (rad/s) (Merritt 1967, ch. 5).
 
-    Merritt 1967, *Hydraulic Control Systems*, ch. 5 (valve-controlled actuator, eq. 5-27 form): the
+    Merritt 1967, *Hydraulic Control Systems*, ch. 5 (valve-controlled actuator): the
     oil in both chambers of a symmetric actuator at mid stroke is a spring of stiffness
     ``4 beta d^2 / V`` (each half ``V / 2`` a spring ``beta d^2 / (V / 2)``, both act) against the
     inertia ``I``. Also available as :func:`motionlib.sim.hydraulics.natural_frequency_rad_s`.
