@@ -123,13 +123,13 @@ class SimParams:
     natural_freq_hz : float or None
         Natural frequency of the joints' velocity response (Hz), from the oil compliance
         (:func:`motionlib.sim.hydraulics.natural_frequency_rad_s`, Merritt 1967, *Hydraulic Control
-        Systems*, ch. 5). None (default): each joint its own,
+        Systems*, ch. 5). A number: every joint that frequency; the default
+        :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz (assumption: the lab boom's 2.6 Hz) is the plant the
+        experiment and the controller's tuning were run on. None: each joint its own,
         ``omega_i = sqrt(4 beta d_i^2 / (V_i I_i))`` from the crane file's ``hydraulics.bulk_modulus``,
         ``displacement``, ``oil_volume`` and the joint inertia the plant uses (``joint_inertia`` below,
         by default the file's nominal, configuration-independent ``dynamics.joint_inertia``); a crane
-        file without ``oil_volume`` gives every joint :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz
-        (assumption: the lab boom's 2.6 Hz, the earlier single value). A number: every joint
-        that frequency (overrides the file). The grapple's mass on the rod lowers the loaded
+        file without ``oil_volume`` then gives every joint 2.5 Hz. The grapple's mass on the rod lowers the loaded
         frequency further through its reaction (module docstring). 000 section 4.1 puts the
         arm's undesired oscillations between 10 ms and 0.5 s.
     damping_ratio : float
@@ -179,7 +179,7 @@ class SimParams:
     model: str = "second_order"
     dt_sub_s: float = param(0.001, gt=0.0)
     tau_s: float = param(0.04, gt=0.0)
-    natural_freq_hz: float | None = param(None, gt=0.0, le=100.0, optional=True)
+    natural_freq_hz: float | None = param(DEFAULT_NATURAL_FREQ_HZ, gt=0.0, le=100.0, optional=True)
     damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     accel_factor: float = param(4.0, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
