@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,12 @@ def crane_summary(crane: Crane) -> dict[str, Any]:
     hydraulics = None
     if m.pump_flow is not None:
         hydraulics = {"pump_flow": m.pump_flow, "displacement": dict(zip(JOINT_NAMES, m.displacement, strict=True))}
+        omega = m.natural_frequencies_rad_s()
+        if m.bulk_modulus is not None and m.oil_volume is not None and omega is not None:
+            hydraulics["bulk_modulus"] = m.bulk_modulus
+            hydraulics["oil_volume"] = dict(zip(JOINT_NAMES, m.oil_volume, strict=True))
+            hydraulics["natural_frequency_hz"] = {n: w / (2.0 * math.pi)
+                                                  for n, w in zip(JOINT_NAMES, omega, strict=True)}
     return {
         "name": m.name,
         "description": m.description,
@@ -82,6 +89,11 @@ def _print_summary(s: dict[str, Any]) -> None:
     else:
         disp = ", ".join(f"{k} {v:g}" for k, v in hyd["displacement"].items())
         click.echo(f"  hydraulics: pump flow {hyd['pump_flow']:g} m^3/s; displacement (m^3/rad, m^3/m) {disp}")
+        if "natural_frequency_hz" in hyd:
+            vol = ", ".join(f"{k} {v:g}" for k, v in hyd["oil_volume"].items())
+            freq = ", ".join(f"{k} {v:.2f}" for k, v in hyd["natural_frequency_hz"].items())
+            click.echo(f"  oil springs: bulk modulus {hyd['bulk_modulus']:g} Pa; oil volume (m^3) {vol}; "
+                       f"natural frequency (Hz) {freq}")
     click.echo("  geometry (m): " + ", ".join(f"{k} {v:g}" for k, v in s["geometry"].items()))
 
 

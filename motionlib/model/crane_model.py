@@ -27,6 +27,8 @@ JOINT_TYPES: tuple[str, ...] = ("revolute", "revolute", "revolute", "prismatic")
 #: Name of the optional added joint q5: the grapple rotator (yaw of the grapple about its hanging axis).
 ROTATOR_NAME = "rotator"
 CRANES_DIR = Path(__file__).parent / "cranes"
+#: The :class:`CraneModel` fields of the joints' oil springs (optional; left out of ``to_dict`` when None).
+STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
 
 _TURN = 2.0 * math.pi
 #: Plausibility ranges of a crane file's numbers (docs/crane-format.md, "Plausibility"): the plausible
@@ -45,14 +47,50 @@ PLAUSIBLE: dict[str, Plausible] = {
     "acceleration_max": Plausible(0.01, 10.0, 1e-3, 1e3, "rad/s^2 or m/s^2"),
     "pump_flow": Plausible(1e-5, 2e-2, 1e-7, 10.0, "m^3/s"),
     "displacement": Plausible(1e-5, 0.1, 1e-7, 10.0, "m^3/rad or m^3/m"),
+    # effective bulk modulus of the oil with hoses and entrained air (Merritt 1967: 0.7-1.4 GPa in practice;
+    # pure mineral oil ~1.5-1.8 GPa, a gas-laden oil column in soft hoses well below 0.3 GPa)
+    "bulk_modulus": Plausible(1e8, 2.5e9, 1e6, 1e11, "Pa"),
+    "oil_volume": Plausible(1e-5, 0.5, 1e-8, 100.0, "m^3"),  # oil under compression per joint
+    # sqrt(4 beta d^2 / (V I)) / 2 pi: slow cranes to stiff lab rigs; the numeric bound keeps the plant's
+    # 1 kHz semi-implicit Euler step of the oil spring stable (omega h < 2) with margin (SimParams allows 100 Hz)
+    "natural_frequency": Plausible(0.1, 50.0, 1e-3, 100.0, "Hz"),
     "pump_speed": Plausible(0.01, 1e3, 1e-3, 1e9, "rad/s or m/s"),  # pump_flow / displacement of each joint
     "radius": Plausible(0.005, 2.0, 1e-4, 100.0, "m"),  # link capsules, grapple
     "grapple_length": Plausible(0.05, 5.0, 1e-4, 100.0, "m"),
     "joint_inertia": Plausible(1.0, 1e6, 1e-3, 1e9, "kg m^2 or kg"),
+    "rotator_inertia": Plausible(0.01, 1e4, 1e-5, 1e7, "kg m^2"),  # grapple and log about the hanging axis
     "load_mass": Plausible(1.0, 1e4, 1e-3, 1e6, "kg"),
     "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
     "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
 }
+
+
+def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_volume_m3: float,
+                            inertia: float) -> float:
+    """Hydraulic natural frequency ``omega = sqrt(4 beta d^2 / (V I))`` (rad/s) (Merritt 1967, ch. 5).
+
+    Merritt 1967, *Hydraulic Control Systems*, ch. 5 (valve-controlled actuator): the
+    oil in both chambers of a symmetric actuator at mid stroke is a spring of stiffness
+    ``4 beta d^2 / V`` (each half ``V / 2`` a spring ``beta d^2 / (V / 2)``, both act) against the
+    inertia ``I``. Also available as :func:`motionlib.sim.hydraulics.natural_frequency_rad_s`.
+
+    Parameters
+    ----------
+    bulk_modulus_pa : float
+        Effective bulk modulus ``beta`` of the oil with hoses (Pa).
+    displacement : float
+        Oil volume per unit of joint motion ``d`` (m^3/rad or m^3/m).
+    oil_volume_m3 : float
+        Oil volume ``V`` under compression, both actuator chambers and hoses (m^3).
+    inertia : float
+        Inertia ``I`` the joint moves (kg m^2, or kg for a prismatic joint).
+
+    Returns
+    -------
+    float
+        ``omega`` (rad/s).
+    """
+    return math.sqrt(4.0 * bulk_modulus_pa * displacement * displacement / (oil_volume_m3 * inertia))
 
 
 @dataclass(frozen=True)
@@ -86,6 +124,14 @@ class CraneModel:
     the grapple about its hanging axis; ``None`` without a ``rotator`` section), with its oil
     displacement ``rotator_displacement`` (m^3/rad, drawn from the same pump; ``None`` without
     ``hydraulics``). The four arm joints' tuples keep four entries.
+
+    The joints' oil springs (optional keys of ``hydraulics``, ``None`` without them):
+    ``bulk_modulus`` (Pa, the oil's effective bulk modulus ``beta``) and ``oil_volume`` (m^3 per
+    arm joint, the oil under compression ``V``: both actuator chambers at mid stroke and the hoses),
+    ``rotator_oil_volume`` (m^3) and ``rotator_inertia`` (kg m^2, ``dynamics.joint_inertia.rotator``:
+    the grapple and its log about the hanging axis) on a crane with a rotator. With
+    ``displacement`` and ``joint_inertia`` they give each joint's natural frequency
+    (:meth:`natural_frequencies_rad_s`).
     """
 
     name: str
@@ -111,6 +157,38 @@ class CraneModel:
     load_mass: float | None = None
     rotator: JointSpec | None = None
     rotator_displacement: float | None = None
+    bulk_modulus: float | None = None
+    oil_volume: tuple[float, ...] | None = None
+    rotator_oil_volume: float | None = None
+    rotator_inertia: float | None = None
+
+    @property
+    def has_stiffness(self) -> bool:
+        """The crane file gives the joints' oil springs (``hydraulics.bulk_modulus``, ``oil_volume``)."""
+        return self.bulk_modulus is not None and self.oil_volume is not None
+
+    def natural_frequencies_rad_s(self, with_rotator: bool = False,
+                                  inertia: tuple[float, ...] | None = None) -> tuple[float, ...] | None:
+        """Each joint's hydraulic natural frequency ``sqrt(4 beta d_i^2 / (V_i I_i))`` (rad/s), joint order.
+
+        Merritt 1967, *Hydraulic Control Systems*, ch. 5 (:func:`natural_frequency_rad_s`), with the
+        file's ``bulk_modulus``, ``displacement``, ``oil_volume`` and the nominal, configuration-independent
+        ``dynamics.joint_inertia`` (or ``inertia``, 4 values). With ``with_rotator`` on a crane with a
+        rotator, the rotator's last (5 values). None when the file gives no oil springs.
+        """
+        inertia = inertia if inertia is not None else self.joint_inertia
+        if not self.has_stiffness or self.displacement is None or inertia is None:
+            return None
+        beta = float(self.bulk_modulus)  # type: ignore[arg-type]
+        d, vol = list(self.displacement), list(self.oil_volume)  # type: ignore[arg-type]
+        mass = list(inertia)
+        if with_rotator and self.rotator is not None:
+            if self.rotator_displacement is None or self.rotator_oil_volume is None or self.rotator_inertia is None:
+                return None
+            d.append(self.rotator_displacement)
+            vol.append(self.rotator_oil_volume)
+            mass.append(self.rotator_inertia)
+        return tuple(natural_frequency_rad_s(beta, di, vi, ii) for di, vi, ii in zip(d, vol, mass, strict=True))
 
     @property
     def has_rotator(self) -> bool:
@@ -126,7 +204,7 @@ class CraneModel:
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
-        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement"):
+        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", *STIFFNESS_FIELDS):
             if out[key] is None:
                 del out[key]
         return out
@@ -146,7 +224,7 @@ class CraneModel:
         data["joints"] = tuple(JointSpec(**j) for j in data["joints"])
         if data.get("rotator") is not None:
             data["rotator"] = JointSpec(**data["rotator"])
-        for key in ("displacement", "joint_inertia"):
+        for key in ("displacement", "joint_inertia", "oil_volume"):
             if data.get(key) is not None:
                 data[key] = tuple(data[key])
         model = cls(**data)
@@ -175,12 +253,20 @@ class CraneModel:
                                  if isinstance(displacement, tuple) else displacement}
             if self.rotator_displacement is not None:
                 out["hydraulics"]["displacement"][ROTATOR_NAME] = self.rotator_displacement
+            if self.bulk_modulus is not None:
+                out["hydraulics"]["bulk_modulus"] = self.bulk_modulus
+            if self.oil_volume is not None:
+                out["hydraulics"]["oil_volume"] = dict(zip(JOINT_NAMES, self.oil_volume, strict=True))
+                if self.rotator_oil_volume is not None:
+                    out["hydraulics"]["oil_volume"][ROTATOR_NAME] = self.rotator_oil_volume
         out["geometry"] = {k: getattr(self, k) for k in (
             "column_radius", "boom_radius", "jib_radius", "telescope_radius", "grapple_length", "grapple_radius",
             "log_length", "log_diameter")}
         if self.joint_inertia is not None and self.load_mass is not None:
             out["dynamics"] = {"joint_inertia": dict(zip(JOINT_NAMES, self.joint_inertia, strict=True)),
                                "load_mass": self.load_mass}
+            if self.rotator_inertia is not None:
+                out["dynamics"]["joint_inertia"][ROTATOR_NAME] = self.rotator_inertia
         return out
 
     @property
@@ -249,6 +335,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         rotator = _read_joint(top.section(ROTATOR_NAME), ROTATOR_NAME, "revolute", r["slew"])
 
     pump_flow = displacement = rotator_displacement = None
+    bulk_modulus = oil_volume = rotator_oil_volume = None
+    vsec: Section | None = None
     names = JOINT_NAMES + ((ROTATOR_NAME,) if rotator is not None else ())
     if top.has("hydraulics"):
         hyd = top.section("hydraulics")
@@ -256,6 +344,13 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         dsec = hyd.section("displacement")
         values = tuple(dsec.number(n, gt=0, plausible=r["displacement"]) for n in names)
         dsec.done()
+        if hyd.has("bulk_modulus") or hyd.has("oil_volume"):  # the oil springs: both keys or neither
+            bulk_modulus = hyd.number("bulk_modulus", gt=0, plausible=r["bulk_modulus"])
+            vsec = hyd.section("oil_volume")
+            volumes = tuple(vsec.number(n, gt=0, plausible=r["oil_volume"]) for n in names)
+            vsec.done()
+            oil_volume = volumes[:4]
+            rotator_oil_volume = volumes[4] if rotator is not None else None
         hyd.done()
         for n, d in zip(names, values, strict=True):
             dsec.check_plausible(n, pump_flow / d, r["pump_speed"], "the speed pump_flow / displacement: ")
@@ -270,17 +365,21 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
-    joint_inertia = load_mass = None
+    joint_inertia = load_mass = rotator_inertia = None
     if top.has("dynamics"):
         dyn = top.section("dynamics")
         isec = dyn.section("joint_inertia")
         joint_inertia = tuple(isec.number(n, gt=0, plausible=r["joint_inertia"]) for n in JOINT_NAMES)
+        if rotator is not None and (oil_volume is not None or isec.has(ROTATOR_NAME)):
+            rotator_inertia = isec.number(ROTATOR_NAME, gt=0, plausible=r["rotator_inertia"])
         isec.done()
         load_mass = dyn.number("load_mass", gt=0, plausible=r["load_mass"])
         dyn.done()
+    if vsec is not None and joint_inertia is None:
+        top.fail("dynamics", "required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)")
     top.done()
 
-    return CraneModel(
+    model = CraneModel(
         name=name,
         description=description,
         column_height=column_height,
@@ -300,8 +399,19 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         load_mass=load_mass,
         rotator=rotator,
         rotator_displacement=rotator_displacement,
+        bulk_modulus=bulk_modulus,
+        oil_volume=oil_volume,
+        rotator_oil_volume=rotator_oil_volume,
+        rotator_inertia=rotator_inertia,
         **radii,
     )
+    if vsec is not None:  # each joint's natural frequency sqrt(4 beta d^2 / (V I)) / 2 pi must be plausible
+        freqs = model.natural_frequencies_rad_s(with_rotator=True)
+        for n, w in zip(names, freqs or (), strict=True):
+            vsec.check_plausible(n, w / (2.0 * math.pi), r["natural_frequency"],
+                                 "the natural frequency sqrt(4 bulk_modulus displacement^2 / (oil_volume "
+                                 "joint_inertia)) / 2 pi: ")
+    return model
 
 
 def _read_joint(j: Section, jname: str, jtype: str, position: Plausible) -> JointSpec:

@@ -12,7 +12,8 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
 2. **pump**: the valves' demands share the pump's flow, ``y = k x`` with
    ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.sim.pump.flow_share`);
 3. **actuator** (oil compliance, second order): the flow ``y`` drives the joint through the
-   oil's compliance, a mass-spring system with natural frequency ``omega`` and damping ratio
+   oil's compliance, a mass-spring system with natural frequency ``omega_i`` (each joint its
+   own, from its oil column and inertia: :func:`natural_frequency_rad_s`) and damping ratio
    ``zeta``. With the load's generalised force per unit inertia ``f`` (the grapple's
    pull on the tip, ``f_i = J_i^T F / I_i``, an acceleration along the joint)::
 
@@ -34,44 +35,33 @@ velocity follows the pump-shared command with the first-order lag
 The substep is compiled with numba (:func:`actuators_substep`); the simulated crane calls it from
 its own compiled substep loop, and :class:`HydraulicJoints` holds the state it works on.
 
-The natural frequency follows from the oil compliance (Merritt 1967, eq. for a symmetric
-valve-controlled cylinder at mid stroke): :func:`natural_frequency_rad_s`.
+The natural frequency follows from the oil compliance (Merritt 1967, *Hydraulic Control Systems*,
+ch. 5, a symmetric valve-controlled actuator at mid stroke): :func:`natural_frequency_rad_s`
+(defined with the crane model, :func:`motionlib.model.crane_model.natural_frequency_rad_s`,
+re-exported here): ``omega = sqrt(4 beta d^2 / (V I))`` with the oil's effective bulk modulus
+``beta`` (Pa), the displacement ``d`` (m^3/rad, m^3/m), the oil volume under compression ``V``
+(m^3) and the joint's inertia ``I`` (kg m^2, kg); the crane file's ``hydraulics.bulk_modulus``,
+``hydraulics.oil_volume`` and ``dynamics.joint_inertia`` give them per joint.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 from numba import njit
 
+from ..model.crane_model import natural_frequency_rad_s
 from .pump import flow_share
+
+__all__ = ["HydraulicJoints", "actuators_substep", "natural_frequency_rad_s"]
 
 #: Rows of the joint state array (5, n) of :func:`actuators_substep`.
 Q, V, X, S, Y = range(5)
 
 
-def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_volume_m3: float,
-                            inertia: float) -> float:
-    """Hydraulic natural frequency ``omega = sqrt(4 beta d^2 / (V I))`` (rad/s) (Merritt 1967, ch. 5).
-
-    Parameters
-    ----------
-    bulk_modulus_pa : float
-        Effective bulk modulus ``beta`` of the oil with hoses (Pa).
-    displacement : float
-        Oil volume per unit of joint motion ``d`` (m^3/rad or m^3/m).
-    oil_volume_m3 : float
-        Oil volume ``V`` under compression, both cylinder chambers and hoses (m^3).
-    inertia : float
-        Inertia ``I`` the joint moves (kg m^2, or kg for a prismatic joint).
-    """
-    return math.sqrt(4.0 * bulk_modulus_pa * displacement * displacement / (oil_volume_m3 * inertia))
-
-
 @njit(cache=True)
-def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w2: float, zw2: float,
+def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w2, zw2,
                       a_relief, displacement, pump_flow: float) -> float:
     """Advance every joint by one substep ``h`` (s), in place; returns the flow-sharing factor ``k``.
 
@@ -90,8 +80,8 @@ def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w
         Substep (s) and the valve's exact step ``1 - exp(-h / tau_v)``.
     second_order : bool
         The oil-compliance model; False: the first-order option.
-    w2, zw2 : float
-        ``omega^2`` and ``2 zeta omega``.
+    w2, zw2 : ndarray, shape (n,)
+        Each joint's ``omega_i^2`` (1/s^2) and ``2 zeta omega_i`` (1/s).
     a_relief : ndarray, shape (n,)
         Acceleration bound of each joint.
     displacement : ndarray, shape (n,)
@@ -109,7 +99,7 @@ def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w
         y[i] = yi
         if second_order:
             fi = f[i]
-            si = s[i] + h * (w2 * (yi - v[i]) - zw2 * (s[i] + fi))
+            si = s[i] + h * (w2[i] * (yi - v[i]) - zw2[i] * (s[i] + fi))
             a = si + fi
             if a > a_relief[i]:
                 a = a_relief[i]
@@ -142,8 +132,12 @@ class HydraulicJoints:
         Initial load per unit inertia (rad/s^2, m/s^2): the actuators start balancing it (``s = -f``).
     second_order : bool
         The oil-compliance model; False: the first-order option.
-    valve_tau_s, omega_rad_s, damping_ratio : float
-        ``tau_v``, ``omega``, ``zeta``.
+    valve_tau_s : float
+        ``tau_v`` (s).
+    omega_rad_s : float or sequence of n float
+        Natural frequency ``omega_i`` of each joint's oil spring (rad/s); one float: every joint.
+    damping_ratio : float
+        ``zeta``.
     a_relief : sequence of n float
         Acceleration bound of each joint (rad/s^2, m/s^2).
     displacement : sequence of n float or None
@@ -155,6 +149,10 @@ class HydraulicJoints:
     ----------
     state : ndarray, shape (5, n)
         Rows ``Q, V, X, S, Y`` of :func:`actuators_substep`.
+    omega : ndarray, shape (n,)
+        ``omega_i`` (rad/s).
+    w2, zw2 : ndarray, shape (n,)
+        ``omega_i^2`` (1/s^2) and ``2 zeta omega_i`` (1/s).
     q, v, x, s, y : ndarray, shape (n,)
         Views of its rows: positions, velocities, valve states, pressure terms, pump-shared speeds.
     share : float
@@ -162,7 +160,8 @@ class HydraulicJoints:
     """
 
     def __init__(self, q: Sequence[float], v: Sequence[float], f: Sequence[float], *, second_order: bool,
-                 valve_tau_s: float, omega_rad_s: float, damping_ratio: float, a_relief: Sequence[float],
+                 valve_tau_s: float, omega_rad_s: float | Sequence[float], damping_ratio: float,
+                 a_relief: Sequence[float],
                  displacement: Sequence[float] | None, pump_flow: float | None):
         self.n = len(q)
         self.state = np.zeros((5, self.n))
@@ -172,8 +171,9 @@ class HydraulicJoints:
         self.share = 1.0
         self.second_order = bool(second_order)
         self.tau = float(valve_tau_s)
-        self.w2 = float(omega_rad_s) ** 2
-        self.zw2 = 2.0 * float(damping_ratio) * float(omega_rad_s)
+        self.omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float), (self.n,)).copy()
+        self.w2 = self.omega**2
+        self.zw2 = 2.0 * float(damping_ratio) * self.omega
         self.a_relief = np.array(a_relief, dtype=float)
         limited = displacement is not None and pump_flow is not None
         self.displacement = np.array(displacement if limited else [0.0] * self.n, dtype=float)

@@ -17,7 +17,8 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
 4. the joint actuators of :mod:`motionlib.sim.hydraulics`: valve spool lag, the shared
    pump's flow divided between the joints (:mod:`motionlib.sim.pump`, when
    ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
-   response (``natural_freq_hz``, ``damping_ratio``) with the grapple's reaction as a load, and
+   response (each joint its own natural frequency from the crane file's oil data, see
+   ``SimParams.natural_freq_hz``; ``damping_ratio``) with the grapple's reaction as a load, and
    the relief valves' acceleration bound ``accel_factor * qdd_max_i``; ``model="first_order"``
    is the simpler option without spool state, compliance and reaction;
 5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity into the
@@ -97,6 +98,8 @@ from .contact import ContactParams, ContactSurfaces, penalty_force
 from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
+#: Natural frequency (Hz) of every joint when neither ``SimParams.natural_freq_hz`` nor the crane file gives one.
+DEFAULT_NATURAL_FREQ_HZ = 2.5
 
 
 @dataclass(frozen=True)
@@ -117,13 +120,18 @@ class SimParams:
     tau_s : float
         Valve spool time constant ``tau_v`` (s); the first-order option's velocity lag.
         Assumption: proportional valves of mobile hydraulics settle in 0.1-0.2 s (about 3-4 time constants).
-    natural_freq_hz : float
-        Closed-loop natural frequency of each joint's velocity response (Hz), from the oil
-        compliance (:func:`motionlib.sim.hydraulics.natural_frequency_rad_s`). Assumption:
-        2.5 Hz, e.g. the lab boom with an effective bulk modulus of 7e8 Pa (Merritt 1967's
-        range for oil with hoses), its 1.4e-3 m^3/rad displacement, 0.01 m^3 of oil under
-        compression and 2000 kg m^2 give 2.6 Hz; 000 section 4.1 puts the arm's undesired
-        oscillations between 10 ms and 0.5 s.
+    natural_freq_hz : float or None
+        Natural frequency of the joints' velocity response (Hz), from the oil compliance
+        (:func:`motionlib.sim.hydraulics.natural_frequency_rad_s`, Merritt 1967, *Hydraulic Control
+        Systems*, ch. 5). A number: every joint that frequency; the default
+        :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz (assumption: the lab boom's 2.6 Hz) is the plant the
+        experiment and the controller's tuning were run on. None: each joint its own,
+        ``omega_i = sqrt(4 beta d_i^2 / (V_i I_i))`` from the crane file's ``hydraulics.bulk_modulus``,
+        ``displacement``, ``oil_volume`` and the joint inertia the plant uses (``joint_inertia`` below,
+        by default the file's nominal, configuration-independent ``dynamics.joint_inertia``); a crane
+        file without ``oil_volume`` then gives every joint 2.5 Hz. The grapple's mass on the rod lowers the loaded
+        frequency further through its reaction (module docstring). 000 section 4.1 puts the
+        arm's undesired oscillations between 10 ms and 0.5 s.
     damping_ratio : float
         Damping ratio ``zeta`` of that response. Assumption: hydraulic drives are lightly
         damped (Merritt 1967: 0.1-0.2 for the open loop); the joint controller adds damping; 0.35.
@@ -171,7 +179,7 @@ class SimParams:
     model: str = "second_order"
     dt_sub_s: float = param(0.001, gt=0.0)
     tau_s: float = param(0.04, gt=0.0)
-    natural_freq_hz: float = param(2.5, gt=0.0, le=100.0)
+    natural_freq_hz: float | None = param(DEFAULT_NATURAL_FREQ_HZ, gt=0.0, le=100.0, optional=True)
     damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     accel_factor: float = param(4.0, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
@@ -213,11 +221,11 @@ _NOISE_BLOCK = 1024  # standard normals drawn at a time for the flow noise
 DEADBAND, GAIN_POS, GAIN_NEG, V_MIN, V_MAX = range(5)
 #: Entries of the parameter array of :func:`plant_period`.
 PLANT_PARAMS: tuple[str, ...] = (
-    "dt_sub", "tau", "second_order", "w2", "zw2", "pump_flow", "length", "gravity", "swing_damping", "mass",
+    "dt_sub", "tau", "second_order", "pump_flow", "length", "gravity", "swing_damping", "mass",
     "react", "contact_k", "contact_c", "friction", "load", "noise",
 )
-(P_DT_SUB, P_TAU, P_SECOND, P_W2, P_ZW2, P_PUMP, P_LENGTH, P_GRAVITY, P_DAMPING, P_MASS, P_REACT, P_CONTACT_K,
- P_CONTACT_C, P_FRICTION, P_LOAD, P_NOISE) = range(16)
+(P_DT_SUB, P_TAU, P_SECOND, P_PUMP, P_LENGTH, P_GRAVITY, P_DAMPING, P_MASS, P_REACT, P_CONTACT_K,
+ P_CONTACT_C, P_FRICTION, P_LOAD, P_NOISE) = range(14)
 #: Entries of the clock array of :func:`plant_period`: time (s), end-stop hits, the peaks so far, the
 #: pump's last sharing factor, the last substep (s) and the next unused entry of the noise buffer.
 PLANT_CLOCK: tuple[str, ...] = ("t", "hits", "peak_pump_ratio", "peak_contact_n", "share", "h_last", "noise_index")
@@ -239,7 +247,7 @@ def joint_load(jac, fx: float, fy: float, fz: float, inv_inertia, out) -> None:
 
 
 @njit(cache=True)
-def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2: float, zw2: float,
+def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2, zw2,
                      a_relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
                      gravity: float, damping: float, mass: float, react: bool, inv_inertia, planes,
                      contact_k: float, contact_c: float, friction: float):
@@ -252,7 +260,8 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     joints : ndarray, shape (5, n)
         The actuators' state (:class:`~motionlib.sim.hydraulics.HydraulicJoints`).
     alpha, second_order, w2, zw2, a_relief, displacement, pump_flow
-        The actuators' parameters (:func:`~motionlib.sim.hydraulics.actuators_substep`).
+        The actuators' parameters (:func:`~motionlib.sim.hydraulics.actuators_substep`; ``w2``, ``zw2``:
+        arrays (n,), each joint's ``omega_i^2`` and ``2 zeta omega_i``).
     q_min, q_max : ndarray, shape (n,)
         End stops (rad, m).
     at_stop : ndarray of bool, shape (n,)
@@ -373,7 +382,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
 
 
 @njit(cache=True)
-def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, normals, u, joints, a_relief,
+def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, normals, u, joints, a_relief, w2, zw2,
                  displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes) -> None:
     """Hold the command ``cmd`` (4,) for ``duration`` (s): steps 1-3 (module docstring), then :func:`integrate_period`.
 
@@ -390,7 +399,7 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
         Held for this long (s), in ``round(duration / dt_sub)`` equal substeps.
     valve : ndarray, shape (5, n)
         Rows ``DEADBAND`` (rad/s, m/s), ``GAIN_POS``, ``GAIN_NEG``, ``V_MIN``, ``V_MAX`` (rad/s, m/s).
-    prm : ndarray, shape (16,)
+    prm : ndarray, shape (14,)
         :data:`PLANT_PARAMS`.
     clock : ndarray, shape (7,)
         :data:`PLANT_CLOCK`, updated.
@@ -398,7 +407,7 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
         Standard normals for the flow noise, used from ``clock[noise_index]`` on (4 per period at most).
     u : ndarray, shape (n,)
         Scratch for the valve commands.
-    joints, a_relief, displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes
+    joints, a_relief, w2, zw2, displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes
         As :func:`integrate_period`.
     """
     n = u.shape[0]
@@ -425,7 +434,7 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
             c = 0.0
         u[4] = min(max(c, valve[V_MIN, 4]), valve[V_MAX, 4])
     hits, pump_ratio, share, contact_peak = integrate_period(
-        u, n_sub, h, joints, 1.0 - math.exp(-h / prm[P_TAU]), prm[P_SECOND] != 0.0, prm[P_W2], prm[P_ZW2], a_relief,
+        u, n_sub, h, joints, 1.0 - math.exp(-h / prm[P_TAU]), prm[P_SECOND] != 0.0, w2, zw2, a_relief,
         displacement, prm[P_PUMP], q_min, q_max, at_stop, g, pend, prm[P_LENGTH], prm[P_GRAVITY], prm[P_DAMPING],
         prm[P_MASS], prm[P_REACT] != 0.0, inv_inertia, planes, prm[P_CONTACT_K], prm[P_CONTACT_C], prm[P_FRICTION],
     )
@@ -462,6 +471,8 @@ class PlantArrays(NamedTuple):
     u: np.ndarray
     joints: np.ndarray
     a_relief: np.ndarray
+    w2: np.ndarray
+    zw2: np.ndarray
     displacement: np.ndarray
     q_min: np.ndarray
     q_max: np.ndarray
@@ -510,6 +521,9 @@ class SimulatedCrane:
         Largest contact force (N, magnitude) on the grapple so far (0 without ``contact``).
     rotator_q, rotator_qd : float
         The grapple rotator's position (rad) and velocity (rad/s); 0 without a rotator.
+    omega_rad_s : tuple of n float
+        Each actuated joint's natural frequency ``omega_i`` (rad/s; the rotator's last), see
+        ``SimParams.natural_freq_hz``.
     joints : HydraulicJoints
         The actuators' state (valve states ``x``, delivered speeds ``y``, sharing factor ``share``).
     arrays : PlantArrays
@@ -593,16 +607,26 @@ class SimulatedCrane:
         fx, fy, fz = pend[ROD_FORCE].tolist()
         joint_load(jac, fx, fy, fz, inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
+        per_joint = model.natural_frequencies_rad_s(with_rotator=rot is not None,
+                                                    inertia=tuple(inertia) if inertia is not None else None)
+        if prm.natural_freq_hz is not None or per_joint is None or len(per_joint) != self._n:
+            hz = prm.natural_freq_hz if prm.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
+            per_joint = (2.0 * math.pi * hz,) * self._n
+        self.omega_rad_s: tuple[float, ...] = tuple(float(w) for w in per_joint)
+        if max(self.omega_rad_s) > 2.0 * math.pi * 100.0:  # SimParams.natural_freq_hz's bound (stable 1 kHz step)
+            top = max(self.omega_rad_s) / (2.0 * math.pi)
+            raise InputError(f"crane {crane.name!r}: a joint's natural frequency {top:.4g} Hz is above 100 Hz "
+                             "(joint_inertia too small)")
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
-            valve_tau_s=prm.tau_s, omega_rad_s=2.0 * math.pi * prm.natural_freq_hz, damping_ratio=prm.damping_ratio,
+            valve_tau_s=prm.tau_s, omega_rad_s=self.omega_rad_s, damping_ratio=prm.damping_ratio,
             a_relief=(prm.accel_factor * full["qdd_max"]).tolist(),
             displacement=list(disp) if shared and disp is not None else None,
             pump_flow=float(pump) if shared and pump is not None else None,
         )
         j, contact = self.joints, prm.contact
         values = {
-            "dt_sub": prm.dt_sub_s, "tau": j.tau, "second_order": j.second_order, "w2": j.w2, "zw2": j.zw2,
+            "dt_sub": prm.dt_sub_s, "tau": j.tau, "second_order": j.second_order,
             "pump_flow": j.pump_flow, "length": self.length_m, "gravity": prm.gravity_m_s2,
             "swing_damping": prm.swing_damping_per_s, "mass": self._mass, "react": react,
             "contact_k": contact.stiffness_n_m if contact else 0.0,
@@ -613,7 +637,8 @@ class SimulatedCrane:
         clock[[C_T, C_SHARE, C_H_LAST]] = t0, 1.0, h
         self.arrays = PlantArrays(
             valve, np.array([float(values[k]) for k in PLANT_PARAMS]), clock, np.zeros(0), np.zeros(self._n),
-            j.state, j.a_relief, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool), self._g, pend,
+            j.state, j.a_relief, j.w2, j.zw2, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool),
+            self._g, pend,
             inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
         )
         self.set_payload(self.payload_frac)

@@ -52,6 +52,8 @@ def test_crane_show_json(name):
         assert j["acceleration_max"] == crane.qdd_max[i]
     assert data["kinematics"]["boom_length"] == crane.model.boom_length
     assert data["hydraulics"]["pump_flow"] == crane.model.pump_flow
+    np.testing.assert_allclose(list(data["hydraulics"]["natural_frequency_hz"].values()),
+                               np.array(crane.model.natural_frequencies_rad_s()) / (2 * np.pi), rtol=1e-12)
     # Reach against brute force over a joint grid: at least the grid's best, and close to it.
     g = np.meshgrid(*(np.linspace(crane.q_min[i], crane.q_max[i], 61) for i in (1, 2, 3)), indexing="ij")
     q = np.stack([np.zeros(g[0].size)] + [x.ravel() for x in g], axis=1)

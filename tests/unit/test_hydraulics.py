@@ -3,15 +3,36 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
+import pytest
+import yaml
 from scipy import signal
 
-from motionlib.sim.hydraulics import natural_frequency_rad_s
-from motionlib.sim.plant import SimParams, SimulatedCrane
+from motionlib.model.crane_model import CRANES_DIR
+from motionlib.model.kinematics import Crane
+from motionlib.sim.hydraulics import HydraulicJoints, actuators_substep, natural_frequency_rad_s
+from motionlib.sim.plant import DEFAULT_NATURAL_FREQ_HZ, SimParams, SimulatedCrane
 
 Q_MID = np.array([0.0, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
 H = 0.001
+EXAMPLES = Path(__file__).parents[2] / "examples"
+#: The crane files with oil data; the rotator's entry last.
+STIFF_FILES = (CRANES_DIR / "lab.yaml", CRANES_DIR / "forwarder.yaml", EXAMPLES / "lab-rotator.yaml",
+               EXAMPLES / "forwarder-rotator.yaml")
+#: The per-joint natural frequencies (Hz) docs/runtime.md and docs/crane-format.md document (rounded to 0.01 Hz).
+DOCUMENTED_HZ = {"lab": (1.13, 2.64, 5.05, 8.46), "forwarder": (0.80, 1.94, 3.45, 8.10),
+                 "lab-rotator": (1.13, 2.64, 5.05, 8.46, 3.33), "forwarder-rotator": (0.80, 1.94, 3.45, 8.10, 0.99)}
+
+
+def _file_omega(path: Path) -> np.ndarray:
+    """omega_i = sqrt(4 beta d_i^2 / (V_i I_i)) (rad/s) from the YAML file's numbers, by plain arithmetic."""
+    raw = yaml.safe_load(path.read_text())
+    hyd, inertia = raw["hydraulics"], raw["dynamics"]["joint_inertia"]
+    names = [n for n in ("slew", "boom", "jib", "telescope", "rotator") if n in hyd["oil_volume"]]
+    return np.array([math.sqrt(4.0 * float(hyd["bulk_modulus"]) * hyd["displacement"][n] ** 2
+                               / (hyd["oil_volume"][n] * inertia[n])) for n in names])
 
 
 def _velocities(sim: SimulatedCrane, cmd, duration: float) -> tuple[np.ndarray, np.ndarray]:
@@ -23,37 +44,110 @@ def _velocities(sim: SimulatedCrane, cmd, duration: float) -> tuple[np.ndarray, 
     return np.array(ts) - ts[0], np.array(vs)
 
 
-def test_second_order_step_natural_frequency_and_overshoot(lab):
-    """No valve lag, no load, no pump: v = u (1 - e^{-zeta w t} (cos wd t + zeta / sqrt(1 - zeta^2) sin wd t))."""
-    prm = SimParams(tau_s=1e-9, load_mass_kg=0.0, pump_sharing=False, deadband_frac=0.0, accel_factor=1e6)
-    sim = SimulatedCrane(lab, Q_MID, prm)
-    u = np.array([0.2, 0.1, -0.1, 0.05])
-    t, v = _velocities(sim, u, 2.0)
-    w, z = 2 * math.pi * prm.natural_freq_hz, prm.damping_ratio
+@pytest.mark.parametrize("path", STIFF_FILES, ids=lambda p: p.stem)
+def test_second_order_step_natural_frequency_and_overshoot(path):
+    """No valve lag, no load, no pump: each joint i rings at its own omega_i from the crane file,
+    v_i = u_i (1 - e^{-zeta w_i t} (cos wd_i t + zeta / sqrt(1 - zeta^2) sin wd_i t)), wd_i = w_i sqrt(1 - zeta^2)."""
+    crane = Crane.load(path)
+    prm = SimParams(natural_freq_hz=None, tau_s=1e-9, load_mass_kg=0.0, pump_sharing=False, deadband_frac=0.0,
+                    accel_factor=1e6)
+    sim = SimulatedCrane(crane, Q_MID, prm)
+    u = np.array([0.2, 0.1, -0.1, 0.05, 0.3])[: len(sim.omega_rad_s)]
+    w, z = _file_omega(path), prm.damping_ratio
+    assert len(w) == len(u)
+    ts, vs = [0.0], [(*sim.qd, sim.rotator_qd)[: len(u)]]
+    for _ in range(3000):  # 3 s: the forwarder's slew (0.8 Hz) rings three half periods
+        sim.advance(u[:4], H, float(u[4]) if len(u) == 5 else 0.0)
+        ts.append(sim.t)
+        vs.append((*sim.qd, sim.rotator_qd)[: len(u)])
+    t, v = np.array(ts), np.array(vs)
     wd = w * math.sqrt(1 - z * z)
-    ref = u * (1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / math.sqrt(1 - z * z) * np.sin(wd * t)))[:, None]
-    assert np.abs(v - ref).max() <= 0.01 * np.abs(u).max()
+    ref = u * (1 - np.exp(-z * w * t[:, None]) * (np.cos(wd * t[:, None])
+                                                  + z / math.sqrt(1 - z * z) * np.sin(wd * t[:, None])))
+    # semi-implicit Euler at 1 kHz: the phase error grows with (w h); the telescope (53 rad/s) leads by ~1 substep
+    assert np.abs(v - ref).max() <= 0.02 * np.abs(u).max()
     overshoot = math.exp(-z * math.pi / math.sqrt(1 - z * z))
-    k = np.argmax(v[:, 0])
-    assert abs(t[k] - math.pi / wd) <= 2 * H  # peak time
-    assert abs(v[k, 0] / u[0] - 1 - overshoot) <= 0.01 * overshoot  # overshoot
-    # period of the ringing from the velocity's successive crossings of the final value
-    e = v[:, 0] - u[0]
-    c = np.flatnonzero(np.sign(e[:-1]) != np.sign(e[1:]))
-    np.testing.assert_allclose(np.diff(t[c])[:3], math.pi / wd, atol=2 * H)
+    for i in range(len(u)):
+        k = np.argmax(v[:, i] / u[i])
+        assert abs(t[k] - math.pi / wd[i]) <= 2 * H  # peak time
+        assert abs(v[k, i] / u[i] - 1 - overshoot) <= 0.02 * overshoot  # overshoot
+        # period of the ringing from the velocity's successive crossings of the final value (interpolated)
+        e = v[:, i] - u[i]
+        c = np.flatnonzero(np.sign(e[:-1]) != np.sign(e[1:]))[:4]
+        tc = t[c] - e[c] * (t[c + 1] - t[c]) / (e[c + 1] - e[c])
+        half = np.diff(tc)
+        assert len(half) >= 2
+        np.testing.assert_allclose(half, math.pi / wd[i], rtol=0.02)  # the damped natural frequency, per joint
 
 
 def test_valve_lag_and_compliance_match_linear_system(lab):
-    """With the valve lag: the transfer function w^2 / ((tau s + 1)(s^2 + 2 zeta w s + w^2)) (scipy.signal.lsim)."""
-    prm = SimParams(load_mass_kg=0.0, pump_sharing=False, deadband_frac=0.0, accel_factor=1e6)
+    """With the valve lag: per joint w_i^2 / ((tau s + 1)(s^2 + 2 zeta w_i s + w_i^2)) (scipy.signal.lsim)."""
+    prm = SimParams(natural_freq_hz=None, load_mass_kg=0.0, pump_sharing=False, deadband_frac=0.0, accel_factor=1e6)
     sim = SimulatedCrane(lab, Q_MID, prm)
     cmd = np.array([0.15, -0.1, 0.1, 0.05])
     t, v = _velocities(sim, cmd, 1.5)
-    w, z, tau = 2 * math.pi * prm.natural_freq_hz, prm.damping_ratio, prm.tau_s
-    sys = signal.lti([w * w], np.polymul([tau, 1.0], [1.0, 2 * z * w, w * w]))
-    _, y, _ = sys.output(np.ones_like(t), t)
-    # first-order integration at 1 kHz: the response leads the exact one by about one substep (|v'| h <= 1.3 %)
-    np.testing.assert_allclose(v, y[:, None] * cmd, rtol=0, atol=0.015 * np.abs(cmd).max())
+    z, tau = prm.damping_ratio, prm.tau_s
+    for i, w in enumerate(_file_omega(CRANES_DIR / "lab.yaml")):
+        sys = signal.lti([w * w], np.polymul([tau, 1.0], [1.0, 2 * z * w, w * w]))
+        _, y, _ = sys.output(np.ones_like(t), t)
+        # first-order integration at 1 kHz: the response leads the exact one by about one substep (|v'| h <= 1.3 %)
+        np.testing.assert_allclose(v[:, i], y * cmd[i], rtol=0, atol=0.015 * np.abs(cmd).max())
+
+
+@pytest.mark.parametrize("path", STIFF_FILES, ids=lambda p: p.stem)
+def test_crane_file_gives_the_documented_frequencies(path):
+    """The crane file's oil data give the frequencies docs/runtime.md documents; the plant uses them."""
+    w = _file_omega(path)
+    np.testing.assert_allclose(w / (2 * math.pi), DOCUMENTED_HZ[path.stem], atol=0.005)
+    crane = Crane.load(path)
+    np.testing.assert_allclose(crane.model.natural_frequencies_rad_s(with_rotator=True), w, rtol=1e-12)
+    assert SimulatedCrane(crane, Q_MID).omega_rad_s == (2 * math.pi * DEFAULT_NATURAL_FREQ_HZ,) * len(w)  # default
+    sim = SimulatedCrane(crane, Q_MID, SimParams(natural_freq_hz=None))
+    np.testing.assert_allclose(sim.omega_rad_s, w, rtol=1e-12)
+    np.testing.assert_allclose(sim.joints.w2, w**2, rtol=1e-12)
+    np.testing.assert_allclose(sim.joints.zw2, 2 * SimParams().damping_ratio * w, rtol=1e-12)
+
+
+def test_single_frequency_without_oil_data_or_when_given(tmp_path):
+    """natural_freq_hz=None on a crane file without oil data: one frequency for every joint (2.5 Hz); a number
+    overrides the file."""
+    raw = yaml.safe_load((CRANES_DIR / "lab.yaml").read_text())
+    del raw["hydraulics"]["bulk_modulus"], raw["hydraulics"]["oil_volume"]
+    path = tmp_path / "old-lab.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    old = Crane.load(path)
+    assert not old.model.has_stiffness and old.model.natural_frequencies_rad_s() is None
+    assert SimulatedCrane(old, Q_MID, SimParams(natural_freq_hz=None)).omega_rad_s == (
+        2 * math.pi * DEFAULT_NATURAL_FREQ_HZ,) * 4
+    lab = Crane.load("lab")
+    assert SimulatedCrane(lab, Q_MID, SimParams(natural_freq_hz=3.0)).omega_rad_s == (2 * math.pi * 3.0,) * 4
+    # the inertia the plant uses enters: four times the inertia halves omega
+    heavy = SimulatedCrane(lab, Q_MID, SimParams(natural_freq_hz=None,
+                                                 joint_inertia=tuple(4 * i for i in lab.model.joint_inertia)))
+    np.testing.assert_allclose(heavy.omega_rad_s, _file_omega(CRANES_DIR / "lab.yaml") / 2, rtol=1e-12)
+
+
+def test_actuators_substep_rings_each_joint_at_its_own_frequency():
+    """The compiled substep alone (no plant, no load, no pump, no valve lag): a velocity step on joints of
+    different omega_i rings at wd_i = omega_i sqrt(1 - zeta^2); half periods from zero crossings within 1 %."""
+    omega = np.array([2 * math.pi * 1.1, 2 * math.pi * 2.6, 2 * math.pi * 5.1, 2 * math.pi * 8.5, 2 * math.pi * 3.3])
+    zeta, h, n = 0.2, 1e-4, 5
+    joints = HydraulicJoints([0.0] * n, [0.0] * n, [0.0] * n, second_order=True, valve_tau_s=1.0,
+                             omega_rad_s=omega.tolist(), damping_ratio=zeta, a_relief=[1e9] * n,
+                             displacement=None, pump_flow=None)
+    u, f = np.full(n, 0.01), np.zeros(n)
+    vs = []
+    for _ in range(int(2.0 / h)):
+        actuators_substep(joints.state, u, f, h, 1.0, True, joints.w2, joints.zw2, joints.a_relief,
+                          joints.displacement, joints.pump_flow)
+        vs.append(joints.v.copy())
+    t, e = h * np.arange(1, len(vs) + 1), np.array(vs) - u
+    wd = omega * math.sqrt(1 - zeta * zeta)
+    for i in range(n):
+        c = np.flatnonzero(np.sign(e[:-1, i]) != np.sign(e[1:, i]))[:5]
+        tc = t[c] - e[c, i] * h / (e[c + 1, i] - e[c, i])
+        assert len(tc) >= 3
+        np.testing.assert_allclose(np.diff(tc), math.pi / wd[i], rtol=0.01)
 
 
 def test_relief_bound_limits_acceleration(lab):

@@ -156,3 +156,66 @@ def test_model_record_round_trip(crane) -> None:
     record = json.loads(json.dumps(crane.model.to_dict()))
     again = CraneModel.from_dict(record)
     assert again == crane.model and again.digest == crane.model.digest
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "expected"),
+    [
+        ("hydraulics.bulk_modulus", float("nan"), "hydraulics.bulk_modulus: expected a finite number"),
+        ("hydraulics.bulk_modulus", "7e8", "hydraulics.bulk_modulus: expected a number, got str '7e8'"),
+        ("hydraulics.bulk_modulus", -7e8, "hydraulics.bulk_modulus: expected a number > 0"),
+        ("hydraulics.bulk_modulus", 5e10, "hydraulics.bulk_modulus: expected a value in [1e+08, 2.5e+09] Pa (plaus"),
+        ("hydraulics.bulk_modulus", 1e7, "hydraulics.bulk_modulus: expected a value in [1e+08, 2.5e+09] Pa"),
+        ("hydraulics.oil_volume.jib", float("inf"), "hydraulics.oil_volume.jib: expected a finite number"),
+        ("hydraulics.oil_volume.jib", True, "hydraulics.oil_volume.jib: expected a number"),
+        ("hydraulics.oil_volume.jib", 0.0, "hydraulics.oil_volume.jib: expected a number > 0"),
+        ("hydraulics.oil_volume.jib", 3.0, "hydraulics.oil_volume.jib: expected a value in [1e-05, 0.5] m^3"),
+        ("hydraulics.oil_volume.rotator", 0.01, "hydraulics.oil_volume.rotator: unknown key"),
+        ("hydraulics.oil_volume", [0.01] * 4, "hydraulics.oil_volume: expected a mapping"),
+        ("hydraulics.oil_volume.telescope", 2e-5,  # plausible volume, but 58 Hz: a too stiff oil spring
+         "hydraulics.oil_volume.telescope: the natural frequency sqrt(4 bulk_modulus displacement^2"),
+        ("dynamics.joint_inertia.rotator", 8.0, "dynamics.joint_inertia.rotator: unknown key"),
+    ],
+)
+def test_malformed_stiffness_value(tmp_path, forwarder_data, key, value, expected):
+    """Each key of the oil springs (hydraulics.bulk_modulus, hydraulics.oil_volume) is read strictly."""
+    message = _load_error(_write(tmp_path, _set(forwarder_data, key, value)))
+    assert expected in message
+
+
+@pytest.mark.parametrize("key", ["hydraulics.bulk_modulus", "hydraulics.oil_volume", "hydraulics.oil_volume.slew"])
+def test_missing_stiffness_key(tmp_path, forwarder_data, key):
+    """bulk_modulus and oil_volume come together, with every joint's volume."""
+    message = _load_error(_write(tmp_path, _delete(forwarder_data, key)))
+    assert f"{key}: required key is missing" in message
+
+
+def test_oil_volume_needs_the_joint_inertia(tmp_path, forwarder_data):
+    message = _load_error(_write(tmp_path, _delete(forwarder_data, "dynamics")))
+    assert "dynamics: required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)" in message
+
+
+def test_rotator_stiffness_keys(tmp_path):
+    """A crane with a rotator and oil data needs the rotator's oil volume and inertia, read strictly."""
+    raw = yaml.safe_load((Path(__file__).parents[2] / "examples" / "lab-rotator.yaml").read_text())
+    model = load_crane_model(_write(tmp_path, raw))
+    assert model.rotator_oil_volume == raw["hydraulics"]["oil_volume"]["rotator"]
+    assert model.rotator_inertia == raw["dynamics"]["joint_inertia"]["rotator"]
+    for key in ("hydraulics.oil_volume.rotator", "dynamics.joint_inertia.rotator"):
+        assert f"{key}: required key is missing" in _load_error(_write(tmp_path, _delete(raw, key)))
+    message = _load_error(_write(tmp_path, _set(raw, "dynamics.joint_inertia.rotator", float("nan"))))
+    assert "dynamics.joint_inertia.rotator: expected a finite number" in message
+    message = _load_error(_write(tmp_path, _set(raw, "dynamics.joint_inertia.rotator", 1e5)))
+    assert "dynamics.joint_inertia.rotator: expected a value in [0.01, 10000] kg m^2" in message
+
+
+def test_stiffness_is_optional_and_relaxed_widens_it(tmp_path, forwarder_data):
+    """Without bulk_modulus and oil_volume (the files before them) the model has no oil springs; relaxed
+    plausibility accepts an unusual bulk modulus."""
+    old = _delete(_delete(forwarder_data, "hydraulics.bulk_modulus"), "hydraulics.oil_volume")
+    model = load_crane_model(_write(tmp_path, old))
+    assert not model.has_stiffness and model.natural_frequencies_rad_s() is None
+    assert model.to_dict().keys() == {k for k in Crane.load("forwarder").model.to_dict()
+                                      if k not in ("bulk_modulus", "oil_volume")}
+    relaxed = _set(_set(forwarder_data, "plausibility", "relaxed"), "hydraulics.bulk_modulus", 5e10)
+    assert load_crane_model(_write(tmp_path, relaxed)).bulk_modulus == 5e10

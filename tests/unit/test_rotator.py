@@ -218,6 +218,9 @@ def test_the_pump_limits_the_rotator_when_it_is_the_smaller_bound(raw):
     """A pump that feeds the rotator with less than its valve's speed: the turn's cruise speed is Q / d5."""
     data = copy.deepcopy(raw)
     data["hydraulics"]["displacement"]["rotator"] = 1.5e-3  # Q / d5 = 0.5 rad/s < velocity_max 1.0
+    # without the oil springs: a 30 times larger motor on the file's 0.002 m^3 and 8 kg m^2 would ring at
+    # 100 Hz, rejected as implausible (hydraulics.oil_volume); the planner's pump limit does not use them
+    del data["hydraulics"]["bulk_modulus"], data["hydraulics"]["oil_volume"]
     crane = Crane(crane_model_from_dict(data))
     s = np.linspace(0.0, 1.0, 60)
     q = np.tile([0.2, 0.5, -1.3, 0.3, 0.0], (60, 1))
