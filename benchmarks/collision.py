@@ -1,6 +1,6 @@
 """Benchmark of collision checking (motionlib.model.collision) on the shipped scenes, one core.
 
-Run: ``/work/venv/bin/python benchmarks/collision.py [--n N] [--seed S] [--repeat R]``
+Run: ``python benchmarks/collision.py [--n N] [--seed S] [--repeat R]``
 
 For each shipped scene (obstacles/*.yaml, with its own crane, margin 0) the table gives the
 throughput of:

@@ -1,6 +1,6 @@
 """Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
 
-Run: ``/work/venv/bin/python benchmarks/executed.py [--library PATH] [--rows N] [--no-swing-settle]
+Run: ``python benchmarks/executed.py [--library PATH] [--rows N] [--no-swing-settle]
 [--no-swing-damping]``
 
 The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):

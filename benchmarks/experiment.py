@@ -1,6 +1,6 @@
 """Benchmark of the log-loading experiment: library build and the full run (issue 6 target: <= 2 min on 2 cores).
 
-Run: ``/work/venv/bin/python benchmarks/experiment.py [--workers 2] [--library LIB] [--series 2]``
+Run: ``python benchmarks/experiment.py [--workers 2] [--library LIB] [--series 2]``
 
 Without ``--library`` the log-loading library (``libraries/log-loading.yaml``) is first built
 into a temporary directory with the same workers (timed); with it, the given library is used

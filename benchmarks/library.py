@@ -1,6 +1,6 @@
 """Benchmark of motion libraries: build throughput, selection latency, open time, bytes per trajectory.
 
-Run: ``/work/venv/bin/python benchmarks/library.py [--entries-build N] [--quick]``
+Run: ``python benchmarks/library.py [--entries-build N] [--quick]``
 
 1. Build throughput: small specs (lab crane in the log-loading scene, forwarder crane at the
    forwarder site; the first ``N`` entries of the shipped specs' grids) built with

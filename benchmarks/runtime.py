@@ -1,6 +1,6 @@
 """Benchmark of the runtime: controller step time and closed-loop simulation speed.
 
-Run: ``/work/venv/bin/python benchmarks/runtime.py [--repeat N]``
+Run: ``python benchmarks/runtime.py [--repeat N]``
 
 Scenarios on the lab crane in ``obstacles/log-loading.yaml``, with the trajectories planned here
 (go out: target area -> the fix point between the pick-up areas; go back with a log: pick-up

@@ -1,6 +1,6 @@
 """Benchmark of trajectory selection (motionlib.library.selection) on a synthetic 100 000-entry index.
 
-Run: ``/work/venv/bin/python benchmarks/selection.py [--entries N] [--queries Q] [--seed S]``
+Run: ``python benchmarks/selection.py [--entries N] [--queries Q] [--seed S]``
 
 The synthetic library is seeded and geometrically plausible for the forwarder crane (9.7 m reach):
 five named start configurations; end points spread uniformly over two log-pile regions either side of

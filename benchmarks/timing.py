@@ -1,6 +1,6 @@
 """Benchmark of TOPPRA time scaling (motionlib.planning.timing.time_scale) and the phase-plane bound.
 
-Run: ``/work/venv/bin/python benchmarks/timing.py [--paths N] [--seed S]``
+Run: ``python benchmarks/timing.py [--paths N] [--seed S]``
 
 Seeded synthetic forwarder paths: the tip moves on a straight line between a random point in a
 log-pile region and a random point over the load bunk, lifted by a 0.5-1.5 m sine arc, with the
