@@ -277,9 +277,10 @@ def run_summary(
     else:
         out.update(dict.fromkeys(("total_jerk", "total_sq_acceleration", "peak_acceleration_m_s2", "peak_jerk_m_s3",
                                   "peak_speed_m_s"), 0.0))
+    spline = (TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
+              if trajectory is not None else None)
     auto = np.isin(arrays["authority"], _AUTOMATED)
-    if trajectory is not None and auto.any():
-        spline = TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
+    if spline is not None and auto.any():
         out["max_deviation_m"] = float(path_deviation(tip[auto], spline).max())
     else:
         out["max_deviation_m"] = None
@@ -291,8 +292,7 @@ def run_summary(
     out["planned_duration_s"] = trajectory.duration_s if trajectory is not None else None
     out["flags_seen"] = int(np.bitwise_or.reduce(arrays["flags"])) if t.size else 0
     out["residual_swing_rad"] = residual_swing(t, arrays["swing_rad"], cycle_time_s)
-    if trajectory is not None and t.size:
-        spline = TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
+    if trajectory is not None and spline is not None and t.size:
         out["overshoot_m"] = overshoot(tip, spline(spline.length), spline.derivative(spline.length))
         out["settle_ratio"] = float(cycle_time_s) / trajectory.duration_s if trajectory.duration_s > 0 else None
     else:

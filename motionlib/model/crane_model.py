@@ -31,6 +31,9 @@ CRANES_DIR = Path(__file__).parent / "cranes"
 STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
 
 _TURN = 2.0 * math.pi
+#: Highest hydraulic natural frequency (Hz) the plant's 1 kHz semi-implicit Euler step of the oil spring
+#: integrates stably with margin (omega h < 2 needs < 318 Hz).
+MAX_NATURAL_FREQ_HZ = 100.0
 #: Plausibility ranges of a crane file's numbers (docs/crane-format.md, "Plausibility"): the plausible
 #: range covers lab cranes and full-size forestry cranes with margin; the numeric range (files with
 #: ``plausibility: relaxed``) is what the kinematics, the solvers and the collision library handle.
@@ -52,8 +55,8 @@ PLAUSIBLE: dict[str, Plausible] = {
     "bulk_modulus": Plausible(1e8, 2.5e9, 1e6, 1e11, "Pa"),
     "oil_volume": Plausible(1e-5, 0.5, 1e-8, 100.0, "m^3"),  # oil under compression per joint
     # sqrt(4 beta d^2 / (V I)) / 2 pi: slow cranes to stiff lab rigs; the numeric bound keeps the plant's
-    # 1 kHz semi-implicit Euler step of the oil spring stable (omega h < 2) with margin (SimParams allows 100 Hz)
-    "natural_frequency": Plausible(0.1, 50.0, 1e-3, 100.0, "Hz"),
+    # 1 kHz step of the oil spring stable (MAX_NATURAL_FREQ_HZ)
+    "natural_frequency": Plausible(0.1, 50.0, 1e-3, MAX_NATURAL_FREQ_HZ, "Hz"),
     "pump_speed": Plausible(0.01, 1e3, 1e-3, 1e9, "rad/s or m/s"),  # pump_flow / displacement of each joint
     "radius": Plausible(0.005, 2.0, 1e-4, 100.0, "m"),  # link capsules, grapple
     "grapple_length": Plausible(0.05, 5.0, 1e-4, 100.0, "m"),
@@ -72,7 +75,7 @@ def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_vol
     Merritt 1967, *Hydraulic Control Systems*, ch. 5 (valve-controlled actuator): the
     oil in both chambers of a symmetric actuator at mid stroke is a spring of stiffness
     ``4 beta d^2 / V`` (each half ``V / 2`` a spring ``beta d^2 / (V / 2)``, both act) against the
-    inertia ``I``. Also available as :func:`motionlib.sim.hydraulics.natural_frequency_rad_s`.
+    inertia ``I``.
 
     Parameters
     ----------

@@ -106,7 +106,6 @@ class ExecuteOptions:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
             raise InputError(f"seed: expected an integer >= 0, got {self.seed!r}")
 
-
     def loop_options(self) -> LoopOptions:
         """The loop's settle conditions with this run's time limit."""
         return replace(self.loop, time_limit_s=self.time_limit_s)
@@ -294,6 +293,7 @@ def execute(
         op: Operator = make_operator(str(operator), target_p, mode, controller.joystick, crane, seed=opts.seed, via=via)
     else:
         op = operator
+    camera = simulated_camera(vision) if vision is not None else None
     log = RunLog(
         attrs={
             "mode": mode.value,
@@ -304,11 +304,11 @@ def execute(
             "noise": opts.sim.noise_frac,
             "scene": scene.name,
             "loaded": loaded,
-            **({"vision_target": list(simulated_camera(vision).target)} if vision is not None else {}),
+            **({"vision_target": list(camera.target)} if camera is not None else {}),
             **dict(log_attrs or {}),
         }
     )
-    own: list[Sensor] = [simulated_camera(vision)] if vision is not None else []
+    own: list[Sensor] = [camera] if camera is not None else []
     if opts.accommodation is not None:
         accommodation = accommodation_source(opts.accommodation, opts.mixer.v_operator_max_m_s)
         controller.add_source(accommodation)

@@ -13,7 +13,8 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
    ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.sim.pump.flow_share`);
 3. **actuator** (oil compliance, second order): the flow ``y`` drives the joint through the
    oil's compliance, a mass-spring system with natural frequency ``omega_i`` (each joint its
-   own, from its oil column and inertia: :func:`natural_frequency_rad_s`) and damping ratio
+   own, from its oil column and inertia:
+   :func:`~motionlib.model.crane_model.natural_frequency_rad_s`) and damping ratio
    ``zeta``. With the load's generalised force per unit inertia ``f`` (the grapple's
    pull on the tip, ``f_i = J_i^T F / I_i``, an acceleration along the joint)::
 
@@ -36,12 +37,12 @@ The substep is compiled with numba (:func:`actuators_substep`); the simulated cr
 its own compiled substep loop, and :class:`HydraulicJoints` holds the state it works on.
 
 The natural frequency follows from the oil compliance (Merritt 1967, *Hydraulic Control Systems*,
-ch. 5, a symmetric valve-controlled actuator at mid stroke): :func:`natural_frequency_rad_s`
-(defined with the crane model, :func:`motionlib.model.crane_model.natural_frequency_rad_s`,
-re-exported here): ``omega = sqrt(4 beta d^2 / (V I))`` with the oil's effective bulk modulus
-``beta`` (Pa), the displacement ``d`` (m^3/rad, m^3/m), the oil volume under compression ``V``
-(m^3) and the joint's inertia ``I`` (kg m^2, kg); the crane file's ``hydraulics.bulk_modulus``,
-``hydraulics.oil_volume`` and ``dynamics.joint_inertia`` give them per joint.
+ch. 5, a symmetric valve-controlled actuator at mid stroke):
+:func:`motionlib.model.crane_model.natural_frequency_rad_s`, ``omega = sqrt(4 beta d^2 / (V I))``,
+with the oil's effective bulk modulus ``beta`` (Pa), the displacement ``d`` (m^3/rad, m^3/m), the
+oil volume under compression ``V`` (m^3) and the joint's inertia ``I`` (kg m^2, kg); the crane
+file's ``hydraulics.bulk_modulus``, ``hydraulics.oil_volume`` and ``dynamics.joint_inertia`` give
+them per joint.
 """
 
 from __future__ import annotations
@@ -51,10 +52,7 @@ from collections.abc import Sequence
 import numpy as np
 from numba import njit
 
-from ..model.crane_model import natural_frequency_rad_s
 from .pump import flow_share
-
-__all__ = ["HydraulicJoints", "actuators_substep", "natural_frequency_rad_s"]
 
 #: Rows of the joint state array (5, n) of :func:`actuators_substep`.
 Q, V, X, S, Y = range(5)

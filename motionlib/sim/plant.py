@@ -91,6 +91,7 @@ from numba import njit
 from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
+from ..model.crane_model import MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
@@ -122,7 +123,7 @@ class SimParams:
         Assumption: proportional valves of mobile hydraulics settle in 0.1-0.2 s (about 3-4 time constants).
     natural_freq_hz : float or None
         Natural frequency of the joints' velocity response (Hz), from the oil compliance
-        (:func:`motionlib.sim.hydraulics.natural_frequency_rad_s`, Merritt 1967, *Hydraulic Control
+        (:func:`motionlib.model.crane_model.natural_frequency_rad_s`, Merritt 1967, *Hydraulic Control
         Systems*, ch. 5). A number: every joint that frequency; the default
         :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz (assumption: the lab boom's 2.6 Hz) is the plant the
         experiment and the controller's tuning were run on. None: each joint its own,
@@ -179,7 +180,7 @@ class SimParams:
     model: str = "second_order"
     dt_sub_s: float = param(0.001, gt=0.0)
     tau_s: float = param(0.04, gt=0.0)
-    natural_freq_hz: float | None = param(DEFAULT_NATURAL_FREQ_HZ, gt=0.0, le=100.0, optional=True)
+    natural_freq_hz: float | None = param(DEFAULT_NATURAL_FREQ_HZ, gt=0.0, le=MAX_NATURAL_FREQ_HZ, optional=True)
     damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     accel_factor: float = param(4.0, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
@@ -609,14 +610,14 @@ class SimulatedCrane:
         extra = (self.rotator_q,) if rot is not None else ()
         per_joint = model.natural_frequencies_rad_s(with_rotator=rot is not None,
                                                     inertia=tuple(inertia) if inertia is not None else None)
-        if prm.natural_freq_hz is not None or per_joint is None or len(per_joint) != self._n:
+        if prm.natural_freq_hz is not None or per_joint is None:
             hz = prm.natural_freq_hz if prm.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
             per_joint = (2.0 * math.pi * hz,) * self._n
         self.omega_rad_s: tuple[float, ...] = tuple(float(w) for w in per_joint)
-        if max(self.omega_rad_s) > 2.0 * math.pi * 100.0:  # SimParams.natural_freq_hz's bound (stable 1 kHz step)
-            top = max(self.omega_rad_s) / (2.0 * math.pi)
-            raise InputError(f"crane {crane.name!r}: a joint's natural frequency {top:.4g} Hz is above 100 Hz "
-                             "(joint_inertia too small)")
+        top = max(self.omega_rad_s) / (2.0 * math.pi)
+        if top > MAX_NATURAL_FREQ_HZ:  # e.g. SimParams.joint_inertia too small for the file's oil springs
+            raise InputError(f"crane {crane.name!r}: a joint's natural frequency {top:.4g} Hz is above "
+                             f"{MAX_NATURAL_FREQ_HZ:g} Hz (joint_inertia too small)")
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
             valve_tau_s=prm.tau_s, omega_rad_s=self.omega_rad_s, damping_ratio=prm.damping_ratio,
