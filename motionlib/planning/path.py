@@ -342,8 +342,9 @@ def solve_ompl(
     ``n_waypoints`` of ``diag``.
 
     The search's budget is deterministic: it stops after ``max_checks`` state-validity checks
-    (an OMPL ``PlannerTerminationCondition`` that counts them), so the same inputs and seed give
-    the same answer on an idle or a loaded machine. ``wall_cap_s`` only guards against a search
+    (the checker ends an OMPL termination condition when they are spent), so the same inputs
+    and seed give the same answer on an idle or a loaded machine (single-threaded planners;
+    PRM's solution checker runs in a thread of its own). ``wall_cap_s`` only guards against a search
     that runs away: hitting it raises :class:`~motionlib.errors.PlanningTimeout`, it never
     turns into another answer.
 
@@ -361,20 +362,17 @@ def solve_ompl(
     """
     dim = int(start.shape[0])
     checks = [0]
+    # The budget and the cap are OMPL's own (C++) conditions: a Python callable as the termination
+    # condition would be called from the threads of multithreaded planners (PRM's solution checker)
+    # while solve holds the GIL, and deadlock. The budget is ended from the validity checker.
+    budget = ob.plannerNonTerminatingCondition()
 
     def ompl_valid(state: Any) -> bool:
         checks[0] += 1
+        if checks[0] >= max_checks:
+            budget.terminate()
         # nanobind converts only a Python bool back to C++ bool (np.bool_ gives std::bad_cast)
         return bool(is_valid(np.array(state[0:dim])))
-
-    deadline = time.monotonic() + float(wall_cap_s)
-    capped = [False]
-
-    def stop() -> bool:
-        if checks[0] >= max_checks:
-            return True
-        capped[0] = time.monotonic() > deadline
-        return capped[0]
 
     with _OMPL_LOCK:
         previous_level = ou.getLogLevel()
@@ -400,11 +398,12 @@ def solve_ompl(
             setup.setStartAndGoalStates(s_state, g_state)
             setup.setPlanner(getattr(og, planner)(si))
 
-            status = setup.solve(ob.PlannerTerminationCondition(stop))
+            cap = ob.timedPlannerTerminationCondition(float(wall_cap_s))
+            status = setup.solve(ob.plannerOrTerminationCondition(budget, cap))
             diag["planning_time_s"] = float(setup.getLastPlanComputationTime())
             diag["n_search_checks"] = int(checks[0])
             status_name = status.getStatus().name
-            if capped[0]:  # stopped by the wall clock, not by the budget or a solution: no answer
+            if cap.eval() and checks[0] < max_checks:  # the wall clock, not the budget, may have stopped it
                 raise PlanningTimeout(
                     "path",
                     f"{planner} stopped by the {wall_cap_s:g} s wall-clock cap after {checks[0]} of its "

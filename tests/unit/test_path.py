@@ -455,3 +455,28 @@ def test_the_wall_clock_cap_fails_loudly_and_never_answers():
 def test_max_checks_is_checked():
     with pytest.raises(InputError, match="max_checks"):
         opts(max_checks=0)
+
+
+def test_a_multithreaded_planner_finishes_under_the_budget():
+    """PRM checks for a solution in a thread of its own: the budget must not call Python from there.
+
+    A Python callable as OMPL's termination condition deadlocked PRM in most runs (its solution
+    thread waits for the GIL that ``solve`` holds). Ten plans in a child process with a generous
+    limit, so that a deadlock fails this test instead of hanging the suite.
+    """
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np\n"
+        "from motionlib.planning.path import PathOptions, plan_tip_path\n"
+        "c = np.array([0.0, 0.0, 1.0])\n"
+        "box = ((-3, -3, -1), (3, 3, 3))\n"
+        "for seed in range(10):\n"
+        "    r = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], lambda p: bool(np.linalg.norm(p - c) > 0.8),\n"
+        "                      PathOptions(planner='PRM', max_checks=6000, seed=seed, bounds=box))\n"
+        "    assert r.ok, r.reason\n"
+        "print('ok')\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
