@@ -79,7 +79,18 @@ from .operator_model import (
     operator_input,
 )
 from .operators import FastPlan, Observation
-from .plant import C_NOISE, C_T, GRAPPLE, P_NOISE, TIP, SimulatedCrane, plant_period, rod_angle, tip_velocity
+from .plant import (
+    C_NOISE,
+    C_T,
+    GRAPPLE,
+    P_NOISE,
+    TIP,
+    SimulatedCrane,
+    plant_period,
+    rod_angle,
+    swing_amplitude,
+    tip_velocity,
+)
 
 EXIT_SETTLED, EXIT_LIMIT, EXIT_PYTHON, EXIT_OPERATOR, EXIT_GUARD, EXIT_FLUSH, EXIT_ROOM = range(1, 8)
 #: Where :func:`run_segment` starts: a new step, or within one after the operator or the guard.
@@ -352,7 +363,8 @@ def _observe(plant):
     qd = (j[V, 0], j[V, 1], j[V, 2], j[V, 3])
     tip = (pend[TIP, 0], pend[TIP, 1], pend[TIP, 2])
     rx, ry = pend[GRAPPLE, 0] - tip[0], pend[GRAPPLE, 1] - tip[1]
-    return plant.clock[C_T], q, qd, tip, tip_velocity(pend, plant.clock), rx, ry, rod_angle(pend)
+    return (plant.clock[C_T], q, qd, tip, tip_velocity(pend, plant.clock), rx, ry, rod_angle(pend),
+            swing_amplitude(pend, plant.clock, plant.prm))
 
 
 @njit(cache=True)
@@ -458,7 +470,7 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
     dt = config[L_DT]
     has_model = config[L_MODEL] != 0.0
     while True:
-        t, q, qd, tip, v, rx, ry, swing_rad = _observe(plant)
+        t, q, qd, tip, v, rx, ry, swing_rad, amplitude = _observe(plant)
         if stage == STAGE_NEW:
             if counters[N_STEPS] >= config[L_N_MAX]:
                 return EXIT_LIMIT
@@ -519,7 +531,7 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
                      plant.g, plant.pend, plant.inv_inertia, plant.planes)
         counters[N_STEPS] += 1
         done = op.state[X_PHASE] == DONE if config[L_DONE] < 0.0 else config[L_DONE] != 0.0
-        if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < config[L_SETTLE_V2] and swing_rad < config[L_SETTLE_SWING]
+        if (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] < config[L_SETTLE_V2] and amplitude < config[L_SETTLE_SWING]
                 and cs[S_AUTO] == 0.0 and cs[S_AUTHORITY] != 3 and done):
             counters[N_CALM] += 1
             if counters[N_CALM] >= config[L_HOLD]:

@@ -39,13 +39,15 @@ class LoopOptions:
     settle_speed_m_s : float
         The run has settled when the tip moves slower than this (m/s) ...
     settle_swing_rad : float
-        ... and the grapple's swing angle from the vertical (the logged ``swing_rad``,
-        :attr:`SimulatedCrane.swing_rad <motionlib.sim.plant.SimulatedCrane.swing_rad>`) is below
-        this (rad, > 0; a value above pi leaves the swing out, the tip alone decides) ...
+        ... and the grapple's swing *amplitude*
+        (:attr:`SimulatedCrane.swing_amplitude_rad <motionlib.sim.plant.SimulatedCrane.swing_amplitude_rad>`:
+        the angle from the vertical it would swing out to, so a grapple passing the vertical does not
+        count as still; the log holds the angle itself, ``swing_rad``) is below this (rad, > 0; a value
+        above pi leaves the swing out, the tip alone decides) ...
     settle_hold_s : float
         ... for this long (s), with no automated motion running and the operator done. A step
-        counts with the tip velocity the plant reports (over its last substep) and the swing it
-        logs, both at the start of the step.
+        counts with the tip velocity the plant reports (over its last substep) and the swing
+        amplitude, both at the start of the step.
     compiled : bool
         Run the steps after the first compiled where the run allows it (:mod:`motionlib.sim.fast_loop`;
         the results are the same); False: every step in Python.
@@ -157,6 +159,7 @@ def run_closed_loop(
         state = sim.state()
         vx, vy, vz = observe(obs, sim, controller).v
         swing = sim.swing_rad
+        amplitude = sim.swing_amplitude_rad
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, swing)
@@ -168,7 +171,7 @@ def run_closed_loop(
             sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
         if (
             vx * vx + vy * vy + vz * vz < settle_v2
-            and swing < settle_swing
+            and amplitude < settle_swing
             and not controller.automation_active
             and status.authority != Authority.STOPPED
             and operator.done(obs)

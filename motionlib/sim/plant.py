@@ -462,6 +462,24 @@ def rod_angle(pend) -> float:
     return math.atan2(math.sqrt(rx * rx + ry * ry), -rz)
 
 
+@njit(cache=True)
+def swing_amplitude(pend, clock, prm) -> float:
+    """Amplitude (rad) of the grapple's swing: the largest angle it would reach, at rest or passing the vertical.
+
+    ``sqrt(theta^2 + |v_rel|^2 / (g L))``, ``theta`` the rod's angle (:func:`rod_angle`), ``v_rel`` the
+    grapple's velocity relative to the tip over the last substep, ``L`` the rod length: the small-angle
+    pendulum's energy ``(v_rel^2 / 2 + g L theta^2 / 2)`` as the angle of a swing at rest, so a grapple
+    passing the vertical fast does not read as still. Exact for a planar swing; for a conical one it is
+    ``sqrt(2)`` times the (constant) angle, an upper bound.
+    """
+    h = clock[C_H_LAST]
+    vx = (pend[GRAPPLE, 0] - pend[GRAPPLE_PREV, 0] - pend[TIP, 0] + pend[TIP_PREV, 0]) / h
+    vy = (pend[GRAPPLE, 1] - pend[GRAPPLE_PREV, 1] - pend[TIP, 1] + pend[TIP_PREV, 1]) / h
+    vz = (pend[GRAPPLE, 2] - pend[GRAPPLE_PREV, 2] - pend[TIP, 2] + pend[TIP_PREV, 2]) / h
+    theta = rod_angle(pend)
+    return math.sqrt(theta * theta + (vx * vx + vy * vy + vz * vz) / (prm[P_GRAVITY] * prm[P_LENGTH]))
+
+
 class PlantArrays(NamedTuple):
     """The arrays of one simulated crane that :func:`plant_period` takes after the command (see there)."""
 
@@ -668,6 +686,11 @@ class SimulatedCrane:
     def swing_rad(self) -> float:
         """Angle (rad) of the grapple rod from the vertical."""
         return rod_angle(self.arrays.pend)
+
+    @property
+    def swing_amplitude_rad(self) -> float:
+        """Amplitude (rad) of the grapple's swing (:func:`swing_amplitude`), what the settle rule reads."""
+        return swing_amplitude(self.arrays.pend, self.arrays.clock, self.arrays.prm)
 
     @property
     def contact_force(self) -> tuple[float, float, float]:
