@@ -42,12 +42,12 @@ CONST_VECTORS: tuple[str, ...] = (
 #: Scalar constants of :func:`command_consts`, after the vectors.
 CONST_SCALARS: tuple[str, ...] = (
     "lag", "weight_floor", "weight_raise", "weight_lower", "centering_gain", "swing_gain", "sway_max",
-    "sigma_threshold", "damping_max", "dt", "traded", "joint_operation",
+    "sigma_threshold", "damping_max", "dt", "traded", "joint_operation", "swing_dead",
 )
 (K_DV_CAP, K_V_LO, K_V_HI, K_NEAR_LO, K_NEAR_HI, K_Q_LO, K_Q_HI, K_TWO_AB, K_FAR_HI, K_FAR_LO, K_W_FREE_LO,
  K_W_FREE_HI, K_W_LO, K_W_HI, K_W_WIDTH, K_W_NOM, K_ACTIVITY, K_MID, K_INV_SPAN2) = range(0, 76, 4)
 (K_LAG, K_FLOOR, K_RAISE, K_LOWER, K_CENTER, K_SWING, K_SWAY_MAX, K_SIGMA_THR, K_DAMP_MAX, K_DT, K_TRADED,
- K_JOINT_OP) = range(76, 88)
+ K_JOINT_OP, K_SWING_DEAD) = range(76, 89)
 
 # flags (motionlib.control.control_types.Flag) and authorities (Authority) as plain ints for compiled code
 F_VEL, F_ACC, F_POS, F_GUARD, F_DAMPED = 16, 32, 64, 128, 256
@@ -81,11 +81,16 @@ def swing_damping_rate(c, swing_x: float, swing_y: float) -> tuple[float, float,
     """The swing damping's tip velocity ``k_s r_h`` (3,) (m/s), bounded (controller docstring, step 4).
 
     ``swing_x, swing_y``: the grapple's horizontal offset from the tip (m); NaN when not measured (0 then).
+    Within the dead band ``|r_h| <= r_0`` nothing is added, beyond it ``k_s (|r_h| - r_0)`` along ``r_h``.
     """
     k = c[K_SWING]
     if k == 0.0:
         return (0.0, 0.0, 0.0)
-    vx, vy = k * swing_x, k * swing_y
+    r = math.sqrt(swing_x * swing_x + swing_y * swing_y)
+    if r <= c[K_SWING_DEAD]:
+        return (0.0, 0.0, 0.0)
+    f = k * (r - c[K_SWING_DEAD]) / r  # NaN (not measured) passes to the check below
+    vx, vy = f * swing_x, f * swing_y
     n = math.sqrt(vx * vx + vy * vy)
     if not n <= c[K_SWAY_MAX]:  # too fast, or NaN (not measured)
         if not math.isfinite(n):

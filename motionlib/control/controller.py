@@ -192,6 +192,7 @@ class SharedController:
                 "swing_gain": self.swing_gain_per_s, "sway_max": prm.swing_damping_max_m_s,
                 "sigma_threshold": prm.sigma_threshold, "damping_max": prm.damping_max, "dt": prm.dt_s,
                 "traded": self.mode.authority == "traded", "joint_operation": self.mode.joint_operation,
+                "swing_dead": prm.swing_damping_deadband_rad * crane.model.grapple_length,
             },
         )
         #: The command law's state (:data:`motionlib.control.command.COMMAND_STATE`), behind :attr:`status`.
@@ -540,6 +541,7 @@ class SharedController:
         pa = _ZERO3
         za: Vec4 | None = None
         deviation, dist_end = 0.0, math.inf
+        swing_ref = (0.0, 0.0)
         if auto:
             pa_x = pa_y = pa_z = 0.0
             for src in self._automation_sources:
@@ -558,11 +560,14 @@ class SharedController:
                 raise RuntimeError("automation active without a motion source")
             cs[S_S_P], cs[S_DEV] = motion.s_p, motion.deviation_m
             deviation, dist_end = motion.deviation_m, motion.dist_end_m
+            if isinstance(motion, PathTrackerSource):  # damp the swing the plan did not foresee
+                swing_ref = motion.tracker.swing_reference_m
             if motion.arrived(ctx):
                 self.state[S_AUTO] = 0.0
                 self.events.append(motion_event(EV_ARRIVAL, ctx.t, motion.dist_end_m))
                 auto = False
                 pa, za = _ZERO3, None
+                swing_ref = (0.0, 0.0)
         else:
             cs[S_S_P] = cs[S_DEV] = math.nan
 
@@ -574,8 +579,9 @@ class SharedController:
         else:
             po_guarded, c_o = po, 1.0
         event = command_law(
-            self.consts, cs, self.mixer.consts, self.mixer.state, jac, ctx.q, ctx.qd, self._swing[0], self._swing[1],
-            auto, speed_o, qo if qo is not None else _ZERO4, qo is not None, pa, za if za is not None else _ZERO4,
+            self.consts, cs, self.mixer.consts, self.mixer.state, jac, ctx.q, ctx.qd,
+            self._swing[0] - swing_ref[0], self._swing[1] - swing_ref[1], auto, speed_o,
+            qo if qo is not None else _ZERO4, qo is not None, pa, za if za is not None else _ZERO4,
             za is not None, float(deviation), float(dist_end), po_guarded, c_o, flags,
         )
         if event == EV_HANDOVER:

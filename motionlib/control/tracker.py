@@ -30,6 +30,29 @@ With the tip at ``p`` and the path ``q(s)``, ``s in [0, l]`` (arc length):
     point, weighted in smoothly (``w_end`` from 0 to 1 while ``s_p + Delta s`` goes from
     ``l - Delta s`` to ``l``), i.e. once the look-ahead point is the end point.
 
+Timing (``TrackerParams.timing``)
+---------------------------------
+``"path"`` is the speed law above as 000 section 2.3 has it: the plan's speed where the tip is. On
+the hydraulic plant that keeps the path but not the plan's clock: a tip that lags brakes late and
+hard (its speed at a given arc length exceeds the plan's during the final braking), which excites
+the grapple's swing the plan was shaped not to leave (:mod:`motionlib.planning.swing`). ``"time"``
+(the default) follows the plan's *time law* instead: a clock ``t_ref`` advances with the
+controller's time (at most ``lead_s`` of plan time ahead of ``t_plan(s_p)``, when the plan passed the
+tip's arc length, so an operator holding the motion back is not chased by a runaway reference),
+``s_ref = s_plan(t_ref)`` from the table's time column, and ::
+
+      v_plan(s_v) -> v_plan(s_plan(t_ref + tau_t)) + k_t (s_ref - s_p)      (>= 0)
+
+(``tau_t`` the actuators' lag, ``k_t`` the pull onto the plan's position), with the floor and the
+final convergence as above. The executed tip then accelerates and brakes when the plan does,
+shifted by the actuators' lag (measured against ``"path"`` in docs/runtime.md, "Path tracker").
+
+The tracker also carries the grapple's *planned* swing (its horizontal offset from the tip,
+``swing_reference_m``: the linearised pendulum driven by the planned tip motion,
+:func:`motionlib.planning.swing.swing_response`) at ``t_ref``; the controller's swing damping acts on
+the measured offset minus it while the motion runs, so it damps only the swing the plan did not
+foresee instead of fighting the swing a shaped plan uses to arrive still.
+
 For the redundancy (001 eq. 7) the tracker also gives a joint-velocity reference for the
 null-space term: ``z = v dq_plan/ds(s_p) + k_q (q_plan(s_p) - q)``, the planned joint motion
 at ``s_p`` plus a pull toward the planned configuration, so that the free (telescope)
@@ -64,15 +87,24 @@ Vec4 = tuple[float, float, float, float]
 _FD_EPS = 1e-6  # directional finite-difference step (s) for tip speeds of the trajectory samples
 
 TABLE_COLUMNS: tuple[str, ...] = ("px", "py", "pz", "v2", "q1", "q2", "q3", "q4",
-                                  "dq1_ds", "dq2_ds", "dq3_ds", "dq4_ds")
+                                  "dq1_ds", "dq2_ds", "dq3_ds", "dq4_ds", "t", "rx", "ry")
 """Columns of :attr:`PathTracker.table`: path point (m), planned speed squared (m^2/s^2), planned
-configuration and its derivative over arc length, at every sample."""
-_V2, _Q, _DQ = 3, 4, 8
+configuration and its derivative over arc length, and the planned time (s) at which the tip passes,
+at every sample."""
+_V2, _Q, _DQ, _T, _RX = 3, 4, 8, 12, 13
 TRACKER_STATE: tuple[str, ...] = ("index", "s_p", "deviation", "dist_end", "lookahead", "speed",
-                                  "pd_x", "pd_y", "pd_z", "z1", "z2", "z3", "z4")
-"""Entries of :attr:`PathTracker.state` (``index``: the last nearest sample, -1 before the first search)."""
-_I, _S_P, _DEV, _DIST_END, _LOOKAHEAD, _SPEED, _PD, _Z = 0, 1, 2, 3, 4, 5, 6, 9
-# PathTracker.consts: s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau, h, 1/h, window (samples), l
+                                  "pd_x", "pd_y", "pd_z", "z1", "z2", "z3", "z4", "t_ref", "s_ref", "ref_index",
+                                  "rx_ref", "ry_ref", "t_last")
+"""Entries of :attr:`PathTracker.state` (``index``: the last nearest sample, -1 before the first search;
+``t_ref``, ``s_ref``, ``ref_index``: the plan's clock (s), its arc length there (m) and table interval,
+``rx_ref``, ``ry_ref``: the grapple's planned offset from the tip there (m), ``t_last``: the time of the last
+update (s, NaN before the first), for ``timing="time"``)."""
+_I, _S_P, _DEV, _DIST_END, _LOOKAHEAD, _SPEED, _PD, _Z, _T_REF, _S_REF, _I_REF, _R_REF, _T_LAST = (
+    0, 1, 2, 3, 4, 5, 6, 9, 13, 14, 15, 16, 18)
+# PathTracker.consts: s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau, h, 1/h, window (samples), l,
+# timed (0/1), k_t, lead (s), tau_t (s)
+N_TRACKER_CONSTS = 16
+TIMINGS = ("time", "path")
 
 
 @dataclass(frozen=True)
@@ -103,6 +135,23 @@ class TrackerParams:
         The motion has arrived when the tip is this close (m) to the end point ...
     arrive_speed_m_s : float
         ... and moving slower than this (m/s).
+    timing : str
+        ``"time"`` (default): the tracking speed follows the plan's *time law* (module docstring,
+        "Timing"), so the executed tip accelerates and brakes when the plan does and a plan shaped
+        against the grapple's swing keeps its shape; ``"path"``: the speed table ``v_plan(s)`` read at
+        the tip's arc length (000 section 2.3 as written).
+    time_gain_per_s : float
+        ``k_t`` (1/s): the pull of the tip's arc length toward the plan's (``timing="time"``).
+    time_preview_s : float
+        ``tau_t`` (s): the plan's speed is read this far ahead of its clock (the actuators' lag:
+        the valve's 0.04 s and the joints' ``2 zeta / omega`` ~ 0.04 s, SimParams; a machine's own
+        measured lag goes here).
+    lead_s : float
+        The plan's clock leads the tip by at most this (s of plan time, compared with the time at
+        which the plan passed the tip's arc length): it waits while an operator holds the motion back
+        in shared control, so the reference does not run away. Shorter leads (0.02-0.05 s) also hold it
+        for the actuators' own lag and then leave the tip crawling onto the end point at the plan's
+        vanishing final speed (measured in docs/runtime.md); 1 s: assumption.
     """
 
     s_min_m: float = param(0.10, gt=0.0)
@@ -117,9 +166,15 @@ class TrackerParams:
     window_m: float = param(1.0, gt=0.0)
     arrive_tol_m: float = param(0.01, gt=0.0)
     arrive_speed_m_s: float = param(0.02, gt=0.0)
+    timing: str = "time"
+    time_gain_per_s: float = param(2.0, ge=0.0)
+    time_preview_s: float = param(0.08, ge=0.0)
+    lead_s: float = param(1.0, gt=0.0)
 
     def __post_init__(self) -> None:
         check_params(self)
+        if self.timing not in TIMINGS:
+            raise InputError(f"timing: expected one of {TIMINGS}, got {self.timing!r}")
         if self.s_max_m < self.s_min_m:
             raise InputError(f"s_max_m: expected >= s_min_m = {self.s_min_m}, got {self.s_max_m}")
 
@@ -174,13 +229,14 @@ class PathTracker:
         # one row per sample: the columns of TABLE_COLUMNS (v^2: s_dot^2 is piecewise linear in s on a
         # time-optimal profile)
         self.table = np.ascontiguousarray(np.column_stack(
-            [tables["p"], tables["v"] ** 2, tables["q"], tables["dq_ds"]]), dtype=np.float64)
+            [tables["p"], tables["v"] ** 2, tables["q"], tables["dq_ds"], tables["t"], tables["r"]]), dtype=np.float64)
         p_end = self.table[-1, :3].tolist()
         self.end: Vec3 = (p_end[0], p_end[1], p_end[2])
         prm = self.params
         self.consts = np.array([prm.s_min_m, prm.s_max_m, prm.lookahead_gain, prm.v_floor_m_s, prm.end_gain_per_s,
                                 prm.converge_speed_m_s, prm.config_gain_per_s, prm.lag_preview_s, self.h,
-                                1.0 / self.h, max(1, int(math.ceil(prm.window_m / self.h))), self.length])
+                                1.0 / self.h, max(1, int(math.ceil(prm.window_m / self.h))), self.length,
+                                float(prm.timing == "time"), prm.time_gain_per_s, prm.lead_s, prm.time_preview_s])
         #: The tracker's state (TRACKER_STATE: search index, s_p, distances, look-ahead, speed, p_a, z).
         self.state = np.zeros(len(TRACKER_STATE))
         self.reset()
@@ -193,6 +249,7 @@ class PathTracker:
         st[_I] = -1.0
         st[_DIST_END] = math.inf
         st[_LOOKAHEAD] = self.params.s_min_m
+        st[_T_LAST] = math.nan
 
     s_p = property(lambda self: float(self.state[_S_P]), doc="Arc length (m) of the nearest path point.")
     deviation_m = property(lambda self: float(self.state[_DEV]), doc="``|p - q(s_p)|`` (m).")
@@ -213,6 +270,12 @@ class PathTracker:
         return (a, b, c, d)
 
     @property
+    def swing_reference_m(self) -> tuple[float, float]:
+        """The grapple's horizontal offset from the tip (2,) (m) the plan predicts at its clock (``timing="time"``)."""
+        x, y = self.state[_R_REF:_R_REF + 2].tolist()
+        return (x, y)
+
+    @property
     def search_index(self) -> int:
         """Sample index of the last nearest point (-1: the next search is global)."""
         return int(self.state[_I])
@@ -231,7 +294,7 @@ class PathTracker:
         """Local nearest-point search; returns ``(s_p, |p - q(s_p)|)`` and advances the search index."""
         return tracker_nearest(self.table, self.consts, self.state, x, y, z)
 
-    def update(self, p: Vec3, q: Vec4, tip_speed_m_s: float = 0.0) -> None:
+    def update(self, p: Vec3, q: Vec4, tip_speed_m_s: float = 0.0, t: float = 0.0) -> None:
         """One tracking step (:func:`tracker_update`); sets the attributes.
 
         Parameters
@@ -242,9 +305,12 @@ class PathTracker:
             Joint positions.
         tip_speed_m_s : float
             Current tip speed ``|p_dot|`` (m/s), for the lag preview of the speed table.
+        t : float
+            The controller's clock (s): the plan's clock advances by the time since the last update
+            (``timing="time"``; the first update starts it at 0).
         """
         tracker_update(self.table, self.consts, self.state, p[0], p[1], p[2], q[0], q[1], q[2], q[3],
-                       tip_speed_m_s)
+                       tip_speed_m_s, t)
 
     # ----------------------------------------------------------- inspection
     def plan_speed(self, s: Any) -> np.ndarray:
@@ -276,7 +342,8 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     -------
     dict
         ``s`` (n,) m; ``p`` (n, 3) m, path points ``q(s)``; ``v`` (n,) m/s, planned tip speed;
-        ``q`` (n, 4) planned configuration; ``dq_ds`` (n, 4) its derivative over arc length.
+        ``q`` (n, 4) planned configuration; ``dq_ds`` (n, 4) its derivative over arc length; ``t`` (n,) s,
+        the planned time at which the tip passes ``s`` (nondecreasing).
     """
     step_m = check_scalar(step_m, "step_m", gt=0.0)
     length = spline.length
@@ -293,14 +360,31 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     v_k /= 2.0 * _FD_EPS
     # samples where the tip has not moved yet (rest at the ends) share an s: keep the last of each run
     keep = np.concatenate([np.diff(s_k) > 1e-12, [True]])
-    s_u, v_u, q_u = s_k[keep], v_k[keep], q_k[keep]
+    s_u, v_u, q_u, t_u = s_k[keep], v_k[keep], q_k[keep], np.asarray(trajectory.t, dtype=np.float64)[keep]
     if s_u.size < 2:
         raise InputError("trajectory: the tip does not move")
     v = np.interp(s, s_u, v_u)
     v[0], v[-1] = v_k[0], v_k[-1]
     q = np.column_stack([np.interp(s, s_u, q_u[:, j]) for j in range(4)])
     dq_ds = np.gradient(q, s, axis=0)
-    return {"s": s, "p": p, "v": v, "q": q, "dq_ds": dq_ds}
+    t = np.interp(s, s_u, t_u)  # s = 0: the last sample at rest, when the plan's tip leaves
+    r_k = _predicted_swing(trajectory.t, tip, crane.model.grapple_length)
+    r = np.column_stack([np.interp(s, s_u, r_k[keep, j]) for j in range(2)])
+    return {"s": s, "p": p, "v": v, "q": q, "dq_ds": dq_ds, "t": t, "r": r}
+
+
+def _predicted_swing(t, tip, length):
+    from scipy.signal import lsim
+    dt = 0.005
+    tu = np.arange(0.0, t[-1] + dt, dt)
+    pu = np.column_stack([np.interp(tu, t, tip[:, j]) for j in range(2)])
+    a = np.gradient(np.gradient(pu, dt, axis=0), dt, axis=0)
+    w2 = 9.81 / length
+    out = []
+    for j in range(2):
+        _, y, _ = lsim(([-1.0], [1.0, 0.4, w2]), a[:, j], tu)
+        out.append(np.interp(t, tu, y))
+    return np.column_stack(out)
 
 
 @njit(cache=True)
@@ -366,8 +450,22 @@ def tracker_nearest(table, consts, state, x: float, y: float, z: float) -> tuple
 
 
 @njit(cache=True)
+def _arc_at_time(table, h: float, t: float, j: int) -> tuple[float, int]:
+    """The plan's arc length (m) at its time ``t`` (s), walking the ``t`` column forward from interval ``j``."""
+    last = table.shape[0] - 2
+    while j < last and table[j + 1, _T] <= t:
+        j += 1
+    t0, t1 = table[j, _T], table[j + 1, _T]
+    if t <= t0:
+        return j * h, j
+    if t >= t1:
+        return (j + 1) * h, j
+    return (j + (t - t0) / (t1 - t0)) * h, j
+
+
+@njit(cache=True)
 def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float, q2: float, q3: float, q4: float,
-                   tip_speed: float) -> None:
+                   tip_speed: float, t: float) -> None:
     """One tracking step (module docstring, 000 eq. 3) for the tip at ``(x, y, z)`` (m), joints ``q1..q4``.
 
     Parameters
@@ -381,6 +479,8 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
         :data:`TRACKER_STATE`, updated in place.
     tip_speed : float
         Current tip speed ``|p_dot|`` (m/s), for the lag preview of the speed table.
+    t : float
+        The controller's clock (s); the plan's clock advances by its steps (``timing="time"``).
     """
     s_min, s_max, k_la, v_floor, k_end = consts[0], consts[1], consts[2], consts[3], consts[4]
     v_conv, k_q, preview, inv_h, length = consts[5], consts[6], consts[7], consts[9], consts[11]
@@ -403,9 +503,39 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
     lz = table[j, 2] + f * (table[j + 1, 2] - table[j, 2]) - z
     dist_la = math.sqrt(lx * lx + ly * ly + lz * lz)
 
-    # tracking speed: the plan's speed a lag ahead, floored, converging at the end
-    k, g = _interval((s_p + preview * (tip_speed if tip_speed > v_floor else v_floor)) * inv_h, last)
-    v = math.sqrt(table[k, _V2] + g * (table[k + 1, _V2] - table[k, _V2]))
+    # the plan's clock: when the plan was where the tip is ("path"), or its own clock, at most lead_s ahead
+    k, g = _interval(s_p * inv_h, last)
+    t_tip = table[k, _T] + g * (table[k + 1, _T] - table[k, _T])
+    timed = consts[12] != 0.0
+    running = False
+    if timed:
+        if t > state[_T_LAST] and state[_T_REF] - t_tip < consts[14]:  # (False for the first update: NaN)
+            state[_T_REF] = min(state[_T_REF] + t - state[_T_LAST], t_tip + consts[14])
+            running = state[_T_REF] < t_tip + consts[14]
+        state[_T_LAST] = t
+        s_ref, j_ref = _arc_at_time(table, consts[8], state[_T_REF], int(state[_I_REF]))
+        state[_S_REF], state[_I_REF] = s_ref, j_ref
+    else:
+        state[_T_REF], state[_S_REF] = t_tip, s_p
+    # the planned swing at the plan's clock while it runs free; none after the plan, when the clock waits for
+    # the tip or when the tip sets the clock ("path": a tip that stopped short would hold a planned swing)
+    if running and state[_T_REF] < table[last + 1, _T]:
+        k, g = _interval(state[_S_REF] * inv_h, last)
+        state[_R_REF] = table[k, _RX] + g * (table[k + 1, _RX] - table[k, _RX])
+        state[_R_REF + 1] = table[k, _RX + 1] + g * (table[k + 1, _RX + 1] - table[k, _RX + 1])
+    else:
+        state[_R_REF] = state[_R_REF + 1] = 0.0
+
+    # tracking speed: the plan's speed a lag ahead (of its clock, or of the tip), floored, converging at the end
+    if timed:
+        s_v, _ = _arc_at_time(table, consts[8], state[_T_REF] + consts[15], int(state[_I_REF]))
+        k, g = _interval(s_v * inv_h, last)
+        v = math.sqrt(table[k, _V2] + g * (table[k + 1, _V2] - table[k, _V2])) + consts[13] * (state[_S_REF] - s_p)
+        if v < 0.0:
+            v = 0.0
+    else:
+        k, g = _interval((s_p + preview * (tip_speed if tip_speed > v_floor else v_floor)) * inv_h, last)
+        v = math.sqrt(table[k, _V2] + g * (table[k + 1, _V2] - table[k, _V2]))
     floor = k_end * dist_end  # the floor gives way to the convergence at the end point
     if floor > v_floor:
         floor = v_floor

@@ -65,7 +65,7 @@ from ..control.controller import SharedController
 from ..control.mixer import GUARD_CACHE, MIXER_STATE, guard_clear
 from ..control.runlog import COLUMNS, RunLog
 from ..control.sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
-from ..control.tracker import TABLE_COLUMNS, TRACKER_STATE, tracker_update
+from ..control.tracker import N_TRACKER_CONSTS, TABLE_COLUMNS, TRACKER_STATE, tracker_update
 from ..model.fast_kinematics import tip_point_jacobian, tip_speed
 from .hydraulics import Q, V
 from .operator_model import (
@@ -97,7 +97,7 @@ EXIT_SETTLED, EXIT_LIMIT, EXIT_PYTHON, EXIT_OPERATOR, EXIT_GUARD, EXIT_FLUSH, EX
 STAGE_NEW, STAGE_AFTER_OPERATOR, STAGE_AFTER_GUARD = range(3)
 
 _TR_S_P, _TR_DEV, _TR_DIST_END = (TRACKER_STATE.index(k) for k in ("s_p", "deviation", "dist_end"))
-_TR_PD, _TR_Z = TRACKER_STATE.index("pd_x"), TRACKER_STATE.index("z1")
+_TR_PD, _TR_Z, _TR_R = TRACKER_STATE.index("pd_x"), TRACKER_STATE.index("z1"), TRACKER_STATE.index("rx_ref")
 _MX_T_O = MIXER_STATE.index("t_o")
 _G_C_O = GUARD_CACHE.index("c_o")
 
@@ -198,7 +198,7 @@ def controller_arrays(controller: SharedController) -> ControllerArrays:
         table, tconsts, tstate = tr.table, tr.consts, tr.state
     else:
         table = np.zeros((2, len(TABLE_COLUMNS)))
-        tconsts, tstate = np.zeros(12), np.zeros(len(TRACKER_STATE))
+        tconsts, tstate = np.zeros(N_TRACKER_CONSTS), np.zeros(len(TRACKER_STATE))
     return ControllerArrays(controller.consts, controller.state, controller.mixer.consts, controller.mixer.state,
                             controller.kin.g, gains, setup, table, tconsts, tstate,
                             guard.cache if guard is not None else np.zeros(len(GUARD_CACHE)))
@@ -406,7 +406,7 @@ def _gather(ctl, t: float, q, qd, p, jac, tip_speed: float, scratch, events, cou
     dev, dist_end = 0.0, math.inf
     if auto:
         ts = ctl.tracker_state
-        tracker_update(ctl.table, ctl.tracker_consts, ts, p[0], p[1], p[2], q[0], q[1], q[2], q[3], tip_speed)
+        tracker_update(ctl.table, ctl.tracker_consts, ts, p[0], p[1], p[2], q[0], q[1], q[2], q[3], tip_speed, t)
         pa_x = pa_y = pa_z = 0.0
         pa_x += setup[U_GAIN] * ts[_TR_PD]
         pa_y += setup[U_GAIN + 1] * ts[_TR_PD + 1]
@@ -510,7 +510,9 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
             stage = STAGE_AFTER_GUARD
         w = scratch
         event = command_law(
-            ctl.consts, cs, ctl.mixer_consts, ctl.mixer_state, jac, q, qd, rx, ry, w[W_AUTO] != 0.0, w[W_SPEED_O],
+            ctl.consts, cs, ctl.mixer_consts, ctl.mixer_state, jac, q, qd,
+            rx - ctl.tracker_state[_TR_R] if w[W_AUTO] != 0.0 else rx,
+            ry - ctl.tracker_state[_TR_R + 1] if w[W_AUTO] != 0.0 else ry, w[W_AUTO] != 0.0, w[W_SPEED_O],
             (w[W_QO], w[W_QO + 1], w[W_QO + 2], w[W_QO + 3]), w[W_HAS_QO] != 0.0, (w[W_PA], w[W_PA + 1], w[W_PA + 2]),
             (w[W_ZA], w[W_ZA + 1], w[W_ZA + 2], w[W_ZA + 3]), w[W_HAS_ZA] != 0.0, w[W_DEV], w[W_DIST_END],
             (w[W_PG], w[W_PG + 1], w[W_PG + 2]), w[W_C_O], 0,

@@ -14,6 +14,7 @@ from motionlib.control.controller import SharedController
 from motionlib.control.metrics import path_deviation
 from motionlib.control.resolved_rate import joint_limit_weights, resolve_rate, resolve_rate_fast
 from motionlib.control.sources import CartesianJoystick, JointJoystick, RateSource
+from motionlib.control.tracker import TrackerParams
 from motionlib.errors import InputError
 from motionlib.model.fast_kinematics import TipKinematics
 from motionlib.model.kinematics import Crane
@@ -230,11 +231,13 @@ def test_shared_mode_mixes_with_c_a(planned):
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0])
     _drive(ctl, sim, (0.0, 0.0, 0.0, 0.0), 1.0)
-    assert ctl.status.authority == Authority.SHARED and ctl.status.c_a == pytest.approx(1.0, abs=1e-3)
+    prm = ctl.mixer.params
+    st = ctl.status
+    c_dist = 1 - (1 - prm.far_factor) * _smooth(st.deviation_m / prm.far_distance_m)
+    assert st.authority == Authority.SHARED and st.c_a == pytest.approx(c_dist, rel=1e-9) and c_dist > 0.99
     _drive(ctl, sim, (0.0, 0.0, 0.0, 0.5), 0.05)  # operator lifts at 0.4 m/s: c_a = 1 - S(0.5) outside weak zones
     st = ctl.status
     assert st.speed_o == pytest.approx(0.4)
-    prm = ctl.mixer.params
     c_dist = 1 - (1 - prm.far_factor) * _smooth(st.deviation_m / prm.far_distance_m)
     assert st.c_a == pytest.approx((1 - _smooth(0.4 / prm.v_operator_max_m_s)) * c_dist, rel=1e-9)
     assert ctl.automation_active  # not in a weak zone: no handover
@@ -309,10 +312,15 @@ def planned_back(planned):
     return crane, scene, result.trajectory
 
 
+@pytest.mark.parametrize("timing", ["path", "time"])
 @pytest.mark.parametrize("which", ["planned", "planned_back"])
-def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request):
+def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing, request):
+    """On the first-order plant without a load, both speed laws keep the path and the plan's clock, lagging it by
+    the actuators' ~40 ms. "path" reads the plan's speed where the tip is and arrives with the plan; "time" runs the
+    plan's clock and ends the last few cm (the lag) on the capped position gain (docs/runtime.md): later, by at
+    most 0.8 s here."""
     crane, _, traj = request.getfixturevalue(which)
-    ctl = SharedController(crane, "M6", NO_SWING_DAMPING)
+    ctl = SharedController(crane, "M6", NO_SWING_DAMPING, tracker_params=TrackerParams(timing=timing))
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], KINEMATIC_PLANT)
     # the tip's tracking is measured here, so the run ends at the tip's rest (the swing is left out of the
@@ -322,17 +330,20 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     arrival = [e.t for e in res.log.events if e.name == "arrival"]
     assert res.settled and len(arrival) == 1
     assert arr["swing_rad"][-1] > LoopOptions().settle_swing_rad  # why: still swinging at the tip's rest
-    assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
+    if timing == "path":
+        assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
+    else:
+        assert traj.duration_s < arrival[0] < traj.duration_s + 0.8
     spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
     assert path_deviation(arr["tip_p"], spline).max() < 0.02
     assert np.linalg.norm(arr["tip_p"][-1] - crane.fk(traj.q[-1])) < 0.01
-    # time-aligned, the tip stays within a few cm of the plan's tip at the same moment (lag: ~0.06 s)
+    # time-aligned, the tip stays within a few cm of the plan's tip at the same moment (lag: ~0.04 s)
     plan_tip = crane.fk_batch(traj.q)
-    k = np.minimum(np.arange(len(arr["t"])), len(traj.t) - 1)
-    assert np.linalg.norm(arr["tip_p"] - plan_tip[k], axis=1).max() < 0.12
-    lagged = np.minimum(np.maximum(np.arange(len(arr["t"])) - 12, 0), len(traj.t) - 1)  # 60 ms later
-    # the hydraulic plant (valve lag, oil spring) lags the fastest plans by up to ~6 cm
-    assert np.linalg.norm(arr["tip_p"] - plan_tip[lagged], axis=1).max() < 0.07
+    n = min(len(arr["t"]), len(traj.t))
+    k = np.arange(n)
+    assert np.linalg.norm(arr["tip_p"][:n] - plan_tip[k], axis=1).max() < 0.07
+    lagged = np.maximum(k - 8, 0)  # 40 ms later
+    assert np.linalg.norm(arr["tip_p"][:n] - plan_tip[lagged], axis=1).max() < (0.015 if timing == "path" else 0.06)
     assert res.diagnostics["hard_stop_hits"] == 0
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 
@@ -347,21 +358,15 @@ def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams, **
 
 @pytest.mark.parametrize("which", ["planned", "planned_back"])
 def test_planned_motion_settles_on_the_hydraulic_plant_with_the_swinging_load(which, request):
-    """Default controller on the default plant (second order, the load's pull): it settles soon
-    after the plan ends, and the grapple swings less than on the first-order plant, where the
-    load does not act back, under a controller without swing damping (the reference, run here).
-    Without the swing damping and the loaded-joint gain cap the same runs settled after 2.6x and
-    4.6x the planned duration, the grapple swinging more than on the reference (with them: 1.8x,
-    2.3x; the first-order reference 1.03x; planner version 3). The run settles with the grapple's
-    swing (LoopOptions.settle_swing_rad); the reference's time is its tip's rest (TIP_ONLY): its
-    undamped grapple swings on for ~15 s more, so with the swing rule it takes >3x the plan."""
+    """Default controller on the default plant (second order, the load's pull): it settles soon after the plan
+    ends, with the grapple's swing below the tolerance (LoopOptions.settle_swing_rad), and much sooner than the
+    same controller without the swing damping, whose grapple swings on after the tip has stopped."""
     crane, _, traj = request.getfixturevalue(which)
     res, swing = _passive_run(crane, traj, ControllerParams(), SimParams())
-    ref, ref_swing = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams(model="first_order"), **TIP_ONLY)
-    assert ref.settled and ref.cycle_time_s < 1.2 * traj.duration_s
-    assert res.settled and res.cycle_time_s < 2.5 * traj.duration_s
+    undamped, _ = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams())
+    assert res.settled and res.cycle_time_s < 2.0 * traj.duration_s
     assert [e.name for e in res.log.events] == ["motion_start", "arrival"]
-    assert swing < ref_swing
+    assert undamped.settled and undamped.cycle_time_s > res.cycle_time_s + 2.0
     assert res.diagnostics["hard_stop_hits"] == 0
 
 
@@ -373,7 +378,8 @@ def test_swing_damping_adds_the_derived_damping_to_the_pendulum(lab):
     plant = SimParams(model="first_order", deadband_frac=0.0, tau_s=1e-3, accel_factor=1e3)
     decay = {}
     for zeta in (0.0, 0.1):
-        ctl = SharedController(lab, "M4", ControllerParams(swing_damping=zeta, command_ramp=False))
+        ctl = SharedController(lab, "M4", ControllerParams(swing_damping=zeta, command_ramp=False,
+                                                            swing_damping_deadband_rad=0.0))
         sim = SimulatedCrane(lab, Q_MID, plant)
         sim.set_grapple((0.02, 0.0, -1.0))  # a small swing (0.036 rad) in the x-z plane
         swing = []
@@ -393,6 +399,25 @@ def test_swing_damping_adds_the_derived_damping_to_the_pendulum(lab):
     assert decay[0.0] == pytest.approx(c / 2, rel=0.1)
     k_s = 2 * 0.1 * math.sqrt(9.81 / lab.model.grapple_length)
     assert decay[0.1] == pytest.approx((c + k_s) / 2, rel=0.15)
+
+
+@pytest.mark.parametrize("offset_m", [0.004, 0.02])
+def test_swing_damping_dead_band(lab, offset_m):
+    """No damping within the dead band (the command stays exactly 0); beyond it the tip velocity is
+    ``k_s (|r_h| - r_0)`` along ``r_h`` (ControllerParams.swing_damping_deadband_rad, r_0 = its angle times L)."""
+    prm = ControllerParams(command_ramp=False)
+    ctl = SharedController(lab, "M4", prm)
+    sim = SimulatedCrane(lab, Q_MID, SimParams(model="first_order"))
+    sim.set_grapple((offset_m, 0.0, -1.0))  # the rod scaled to L: r_h = offset * L / |(offset, 0, -1)|
+    r_h = np.array(sim.grapple) - np.array(sim.tip)
+    st = sim.state()
+    ctl.step(st, OperatorInput(st.t, (0.0, 0.0, 0.0, 0.0)))
+    v = lab.jacobian(np.array(sim.q)) @ np.array(ctl.status.qd_cmd)
+    r0 = prm.swing_damping_deadband_rad * lab.model.grapple_length
+    r = float(np.hypot(r_h[0], r_h[1]))
+    expected = max(r - r0, 0.0) * ctl.swing_gain_per_s * np.array([r_h[0], r_h[1], 0.0]) / r
+    assert (r > r0) == (offset_m > 0.01)  # one case each side of the band
+    np.testing.assert_allclose(v, expected, atol=1e-6)
 
 
 def test_position_gain_cap_is_the_gain_margin_on_the_loaded_joint_model(planned):

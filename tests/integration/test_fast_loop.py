@@ -171,7 +171,7 @@ def test_runs_the_compiled_loop_cannot_take_stay_in_python(setting, tmp_path):
 
 def test_array_layouts_match_their_names():
     """Every named offset into the compiled code's arrays points at the entry of that name."""
-    from motionlib.control import command
+    from motionlib.control import command, tracker
     from motionlib.sim import operator_model, plant
 
     layouts = [
@@ -206,6 +206,12 @@ def test_array_layouts_match_their_names():
                              "za1": fast_loop.W_ZA, "has_za": fast_loop.W_HAS_ZA, "deviation": fast_loop.W_DEV,
                              "dist_end": fast_loop.W_DIST_END, "speed_o": fast_loop.W_SPEED_O,
                              "auto": fast_loop.W_AUTO, "pg_x": fast_loop.W_PG, "c_o": fast_loop.W_C_O}),
+        (tracker.TRACKER_STATE, {"index": tracker._I, "s_p": tracker._S_P, "speed": tracker._SPEED,
+                                 "pd_x": tracker._PD, "z1": tracker._Z, "t_ref": tracker._T_REF,
+                                 "s_ref": tracker._S_REF, "ref_index": tracker._I_REF, "rx_ref": tracker._R_REF,
+                                 "t_last": tracker._T_LAST}),
+        (tracker.TABLE_COLUMNS, {"v2": tracker._V2, "q1": tracker._Q, "dq1_ds": tracker._DQ, "t": tracker._T,
+                                 "rx": tracker._RX}),
         (fast_loop.CONFIG, {"n_max": fast_loop.L_N_MAX, "dt": fast_loop.L_DT, "has_model": fast_loop.L_MODEL,
                             "settle_v2": fast_loop.L_SETTLE_V2, "settle_swing": fast_loop.L_SETTLE_SWING}),
     ]
@@ -216,4 +222,4 @@ def test_array_layouts_match_their_names():
     n_scalars = len(operator_model.OPERATOR_CONSTS)
     assert operator_model.O_JS_GAINS == n_scalars and operator_model.N_OPERATOR_CONSTS == n_scalars + 22
     assert len(command.CONST_VECTORS) * 4 == command.K_LAG
-    assert command.K_JOINT_OP == command.K_LAG + len(command.CONST_SCALARS) - 1
+    assert command.K_SWING_DEAD == command.K_LAG + len(command.CONST_SCALARS) - 1

@@ -98,7 +98,6 @@ def test_a_looser_swing_tolerance_settles_sooner(lab, swing_peaks):
     crane, _ = lab
     tight, _ = _swinging_run(lab, 0.03)
     loose, loop = _swinging_run(lab, 0.08)
-    a = loose.log.arrays(crane)
     t_peak, peak = swing_peaks
     assert t_peak[peak >= 0.08][-1] < loose.cycle_time_s <= t_peak[peak < 0.08][0]
     assert 0.0 < loose.cycle_time_s < tight.cycle_time_s

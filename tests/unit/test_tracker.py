@@ -1,4 +1,7 @@
-"""Path tracker (000 eq. 3) against the spline's own nearest-point search, the plan's timing and kinematics."""
+"""Path tracker (000 eq. 3) against the spline's own nearest-point search, the plan's timing and kinematics.
+
+``PATH`` tests the speed law of 000 section 2.3 (``timing="path"``); the time law (the default) is tested
+against the trajectory's own samples and an independent integration of the pendulum."""
 
 from __future__ import annotations
 
@@ -7,13 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from motionlib.control.tracker import PathTracker, TrackerParams
+from motionlib.control.tracker import TABLE_COLUMNS, TRACKER_STATE, PathTracker, TrackerParams
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
 from motionlib.planning.spline import TipSpline
 
 SCENE = "obstacles/log-loading.yaml"
+PATH = TrackerParams(timing="path")
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +55,7 @@ def test_velocity_is_eq3_toward_the_lookahead_point(planned):
     """p_a = v (q_Delta - p)/|q_Delta - p| with Delta s = clip(s_min + k d, s_min, s_max) (000 eq. 3)."""
     crane, traj = planned
     spline = _spline(traj)
-    prm = TrackerParams()
+    prm = PATH
     tracker = PathTracker(traj, crane, prm)
     q = tuple(traj.q[0].tolist())
     for s, off in ((0.5, 0.0), (1.5, 0.03), (2.5, 0.08), (3.5, 0.3)):
@@ -110,7 +114,7 @@ def _integrate(tracker: PathTracker, crane: Crane, p0: np.ndarray, q0: np.ndarra
 def test_ideal_tracking_reproduces_the_plan_timing(planned):
     """With actuators that follow instantly (no lag preview), the tip takes the plan's time along its path."""
     crane, traj = planned
-    tracker = PathTracker(traj, crane, TrackerParams(lag_preview_s=0.0))
+    tracker = PathTracker(traj, crane, TrackerParams(timing="path", lag_preview_s=0.0))
     spline = _spline(traj)
     t, p, dev = _integrate(tracker, crane, spline(0.0), traj.q[0], 2 * traj.duration_s)
     assert t[-1] == pytest.approx(traj.duration_s, rel=0.02)
@@ -121,7 +125,7 @@ def test_ideal_tracking_reproduces_the_plan_timing(planned):
 def test_returns_to_the_path_and_converges_on_the_end(planned):
     crane, traj = planned
     spline = _spline(traj)
-    tracker = PathTracker(traj, crane)
+    tracker = PathTracker(traj, crane, PATH)
     s0 = 1.0
     n = np.cross(spline.derivative(s0), [0.0, 0.0, 1.0])
     p0 = spline(s0) + 0.3 * n / np.linalg.norm(n)
@@ -137,10 +141,72 @@ def test_returns_to_the_path_and_converges_on_the_end(planned):
 def test_null_space_reference_is_the_planned_joint_motion(planned):
     """On the plan at sample k, z = v dq/ds + k_q (q_plan - q) with q = q_plan is the planned joint velocity."""
     crane, traj = planned
-    tracker = PathTracker(traj, crane, TrackerParams(lag_preview_s=0.0, v_floor_m_s=0.0))
+    tracker = PathTracker(traj, crane, TrackerParams(timing="path", lag_preview_s=0.0, v_floor_m_s=0.0))
     tip = crane.fk_batch(traj.q)
     for k in (150, 400, 700):
         tracker.reset()
         tracker.update(tuple(tip[k]), tuple(traj.q[k].tolist()))
         np.testing.assert_allclose(tracker.z, traj.qd[k], atol=0.02 * np.abs(traj.qd).max())
         assert math.isclose(tracker.speed_m_s, np.linalg.norm(crane.jacobian(traj.q[k]) @ traj.qd[k]), rel_tol=0.02)
+
+
+# ------------------------------------------------------------------ the plan's time law (timing="time")
+def _plan_arc(crane: Crane, traj, length: float) -> np.ndarray:
+    """Arc length (m) of the plan's tip at each sample: the cumulative tip polyline, scaled to the spline's length."""
+    tip = crane.fk_batch(traj.q)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tip, axis=0), axis=1))])
+    return s * length / s[-1]
+
+
+def test_time_column_is_when_the_plan_passes(planned):
+    """The table's time column, read at the plan's own samples' arc lengths, gives back their times."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane)
+    s_k = _plan_arc(crane, traj, tracker.length)
+    moving = np.flatnonzero((s_k > 0.01) & (s_k < tracker.length - 0.01))
+    t_table = np.interp(s_k[moving], tracker.s_grid, tracker.table[:, TABLE_COLUMNS.index("t")])
+    assert np.abs(t_table - traj.t[moving]).max() < 0.01  # two samples at 200 Hz
+
+
+def _follow(tracker: PathTracker, p0: np.ndarray, q0, t_max: float, dt: float = 0.005, hold_until: float = 0.0):
+    """Ideal actuators: the tip moves at p_a (explicit Euler, one update per step at the controller's time);
+    held still until ``hold_until`` (s)."""
+    p = p0.copy()
+    q = tuple(np.asarray(q0).tolist())
+    out = []
+    t, speed = 0.0, 0.0
+    while t < t_max:
+        tracker.update(tuple(p), q, speed, t)
+        out.append((t, tracker.s_p, tracker.state[TRACKER_STATE.index("t_ref")]))
+        if tracker.arrived(speed):
+            break
+        v = np.zeros(3) if t < hold_until else np.array(tracker.pd_a)
+        p = p + dt * v
+        speed = float(np.linalg.norm(v))
+        t += dt
+    return np.array(out)
+
+
+def test_ideal_tracking_keeps_the_plans_clock(planned):
+    """With actuators that follow at once (no preview), the tip is where the plan is at the same time."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane, TrackerParams(time_preview_s=0.0))
+    run = _follow(tracker, _spline(traj)(0.0), traj.q[0], 2 * traj.duration_s)
+    s_plan = np.interp(run[:, 0], traj.t, _plan_arc(crane, traj, tracker.length))
+    assert np.abs(run[:, 1] - s_plan).max() < 0.02
+    assert run[-1, 0] == pytest.approx(traj.duration_s, abs=0.3)  # arrived: within 1 cm, slower than 2 cm/s
+
+
+def test_the_plans_clock_waits_for_a_held_tip(planned):
+    """An operator holds the tip for 2 s: the clock stops lead_s of plan time ahead of it, then the motion
+    goes on and arrives."""
+    crane, traj = planned
+    prm = TrackerParams(lead_s=0.3)
+    tracker = PathTracker(traj, crane, prm)
+    run = _follow(tracker, _spline(traj)(0.0), traj.q[0], 3 * traj.duration_s + 2.0, hold_until=2.0)
+    t_col = tracker.table[:, TABLE_COLUMNS.index("t")]
+    t_tip = np.interp(run[:, 1], tracker.s_grid, t_col)
+    assert np.all(run[:, 2] - t_tip <= prm.lead_s + 1e-9)
+    held = run[run[:, 0] < 2.0]
+    assert held[-1, 2] == pytest.approx(t_col[0] + prm.lead_s, abs=1e-9)  # waiting, not 2 s ahead
+    assert run[-1, 0] < 2.0 + traj.duration_s + 1.0 and tracker.arrived(0.0)
