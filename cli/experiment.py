@@ -1,4 +1,5 @@
-"""``motionlib experiment``: simulated experiments of the source papers; ``log-loading`` is 000's (sections 3-4)."""
+"""``motionlib experiment``: simulated experiments of the source papers; ``log-loading`` is 000's (sections 3-4),
+``loading-cycle`` the forwarder loading cycle against 003 Table 3.1."""
 
 from __future__ import annotations
 
@@ -73,6 +74,59 @@ def log_loading(
         for f in analysis.findings:
             click.echo(f"  {f.verdict:15s} {f.name}")
     report.raise_for_status()
+
+
+@experiment.command("loading-cycle")
+@click.option("--runs", default="automation:M6,expert:M1,expert:M6", show_default=True,
+              help="Who operates in which mode, OPERATOR:MODE (comma list): automation (the passive operator: the "
+                   "planned motions alone, M2/M3/M5/M6), expert or novice (the model operators) in M1-M6.")
+@click.option("--logs", type=click.IntRange(min=1),
+              help="Work cycles: the first LOGS logs of the pile, in the scene's order [default: every log, 4].")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
+              help="Seed of the plant's valve noise and the model operators (same seed, same cycles).")
+@click.option("--spec", "spec_path", type=click.Path(dir_okay=False),
+              help="Library spec giving the crane, the scene and the planner's options "
+                   "[default: libraries/forwarder-site.yaml].")
+@click.option("--swing-damping/--no-swing-damping", default=False, show_default=True,
+              help="The controller's swing damping (off, as in the log-loading experiment).")
+@click.option("--time-limit", default=600.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
+              help="Longest simulated time of one run (s).")
+@click.option("--out", "out_dir", default="loading-cycle", show_default=True, type=click.Path(file_okay=False),
+              help="Output folder (states.csv, cycles.csv, states.png, loading-cycle.json).")
+@json_option
+def loading_cycle(runs, logs, seed, spec_path, swing_damping, time_limit, out_dir, as_json) -> None:
+    """Run the forwarder loading cycle (003 Table 3.1 S6-S9) on the forwarder site and compare it with Table 3.1.
+
+    Each run loads the pile's logs onto the bunk: S6 move to the log, S7 grasp, S8 move to the
+    bunk with the log, S9 release, with motions planned for the logs. OUT receives the per-state
+    medians beside Table 3.1's (states.csv, states.png), every cycle (cycles.csv) and the JSON.
+    """
+    from motionlib.experiment.cycle_states import STATES, TABLE_3_1_MEDIAN_S
+    from motionlib.experiment.loading_cycle import DEFAULT_CYCLE_SPEC, CycleRun, LoadingCycleOptions
+    from motionlib.experiment.loading_cycle import loading_cycle as run_cycle
+    from motionlib.experiment.report import plain
+
+    from .output import emit_json
+
+    options = LoadingCycleOptions(
+        spec=spec_path or DEFAULT_CYCLE_SPEC, logs=logs, runs=tuple(CycleRun.parse(r) for r in _names(runs)),
+        seed=seed, time_limit_s=time_limit, swing_damping=swing_damping,
+    )
+    result = run_cycle(options, out_dir)
+    if as_json:
+        emit_json(plain(result.to_dict()))
+    else:
+        diag = result.diagnostics
+        click.echo(f"{diag['logs']} logs, {len(result.runs)} runs in {diag['wall_s']:.1f} s; output: {out_dir}")
+        click.echo(f"  {'median (s)':16s}" + "".join(f" {s:>6s}" for s in STATES) + f" {'cycle':>7s}  logs placed")
+        click.echo(f"  {'003 Table 3.1':16s}" + "".join(f" {TABLE_3_1_MEDIAN_S[s]:6.2f}" for s in STATES)
+                   + f" {sum(TABLE_3_1_MEDIAN_S.values()):7.2f}")
+        for r in result.runs:
+            m = r.state_medians
+            click.echo(f"  {r.run.label:16s}" + "".join(f" {m[s]:6.2f}" for s in STATES)
+                       + f" {r.mean_cycle_s:7.2f}  {r.logs_placed}/{r.series.cycles_planned}")
+    result.raise_for_status()
 
 
 def _names(text: str) -> tuple[str, ...]:

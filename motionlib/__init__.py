@@ -14,6 +14,8 @@ execute_dual(DualScenario.load(path), options) -> DualResult
     Two simulated cranes carry one log by one MRF command, with force-moment accommodation (001 section 3).
 log_loading_experiment(config, out_dir) -> ExperimentReport
     000's log-loading experiment in simulation, from library to report (:mod:`motionlib.experiment`).
+loading_cycle(LoadingCycleOptions(...), out_dir) -> LoadingCycleResult
+    The forwarder loading cycle (S6-S9 of 003 Table 3.1) over a pile's logs, automation and model operators.
 write_view(path, output) -> ViewResult
     A self-contained 3D page of a plan, library or run log (:mod:`motionlib.viz`).
 analyze_recording(path) -> WorkAnalysis
@@ -66,6 +68,7 @@ _EXPORTS: dict[str, str] = {
     "execute": "motionlib.sim.execute",
     "execute_dual": "motionlib.sim.dual",
     "log_loading_experiment": "motionlib.experiment.runner",
+    "loading_cycle": "motionlib.experiment.loading_cycle",
     "write_view": "motionlib.viz.viewer",
     "analyze_recording": "motionlib.analysis.work_analysis",
     "replan_recording": "motionlib.analysis.replan",
@@ -93,6 +96,10 @@ _EXPORTS: dict[str, str] = {
     "DualStatus": "motionlib.sim.dual",
     "ExperimentConfig": "motionlib.experiment.runner",
     "ExperimentReport": "motionlib.experiment.runner",
+    "LoadingCycleOptions": "motionlib.experiment.loading_cycle",
+    "LoadingCycleResult": "motionlib.experiment.loading_cycle",
+    "CycleRun": "motionlib.experiment.loading_cycle",
+    "CycleStatus": "motionlib.experiment.loading_cycle",
     "ViewOptions": "motionlib.viz.viewer",
     "WorkAnalysis": "motionlib.analysis.work_analysis",
     "ReplanReport": "motionlib.analysis.replan",
@@ -104,6 +111,7 @@ __all__ = [
     "execute",
     "execute_dual",
     "log_loading_experiment",
+    "loading_cycle",
     "write_view",
     "analyze_recording",
     "replan_recording",
@@ -130,6 +138,10 @@ __all__ = [
     "DualStatus",
     "ExperimentConfig",
     "ExperimentReport",
+    "LoadingCycleOptions",
+    "LoadingCycleResult",
+    "CycleRun",
+    "CycleStatus",
     "ViewOptions",
     "WorkAnalysis",
     "ReplanReport",
@@ -148,6 +160,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.work_analysis import WorkAnalysis, analyze_recording
     from .control.accommodation import AccommodationOptions
     from .control.control_types import Mode
+    from .experiment.loading_cycle import CycleRun, CycleStatus, LoadingCycleOptions, LoadingCycleResult, loading_cycle
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library
     from .library.selection import SelectionResult

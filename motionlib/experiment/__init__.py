@@ -18,6 +18,14 @@ Modules, one concept each:
 * :mod:`~motionlib.experiment.runner`: every series in parallel, and the library;
 * :mod:`~motionlib.experiment.report`: CSV, PNG, markdown and JSON outputs.
 
+The forwarder loading cycle (docs/loading-cycle.md), on the same machinery:
+
+* :mod:`~motionlib.experiment.loading_cycle`: S6-S9 of 003 Table 3.1 over a pile's logs, automation
+  alone and the model operators (:func:`~motionlib.experiment.loading_cycle.loading_cycle`);
+* :mod:`~motionlib.experiment.planned_motions`: the cycle's automated motions, planned for its logs;
+* :mod:`~motionlib.experiment.cycle_states`: the states and Table 3.1's medians;
+* :mod:`~motionlib.experiment.cycle_report`: its table, figure and JSON.
+
 Further simulated studies beside the experiment:
 
 * :mod:`~motionlib.experiment.recorded_work`: recorded forwarder work made by simulated

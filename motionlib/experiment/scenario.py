@@ -2,9 +2,9 @@
 
 Read from a scene such as ``obstacles/log-loading.yaml`` (the one embedded in the library):
 
-* **logs**: the cylinders named ``log-*`` (about 1.5 m x 0.20 m), in the scene's order, which
-  is the fixed loading order of a series; each lies in the pick-up region (``pickup-*``) that
-  contains its centre;
+* **logs**: the cylinders named ``log-*`` (about 1.5 m x 0.20 m in the lab), in the scene's order,
+  which is the fixed loading order of a series; each lies in the pick-up region (``pickup-*``, or
+  the regions named by ``ScenarioOptions.pickup_prefix``) that contains its centre;
 * **grab point** of a log: the tip centred over the log at ``grab_height_m`` (the grapple,
   ``grapple_length`` below the tip, then reaches the log);
 * **release points**: in the target region (the taped 2 x 1.5 m area), the logs side by side
@@ -96,6 +96,9 @@ class ScenarioOptions:
         Scene points ending go out and go back with ``fixed`` automation ends.
     target_region : str
         Scene region of the target area.
+    pickup_prefix : str
+        Scene regions whose names start with this are the pick-up areas (``pickup`` in the lab
+        scene, ``pile`` on the forwarder site).
     """
 
     grab_height_m: float = param(0.9, gt=0.0)
@@ -112,9 +115,12 @@ class ScenarioOptions:
     fix_point: str = "pickup-between"
     target_point: str = "target-center"
     target_region: str = "target"
+    pickup_prefix: str = "pickup"
 
     def __post_init__(self) -> None:
         check_params(self)
+        if not isinstance(self.pickup_prefix, str) or not self.pickup_prefix:
+            raise InputError(f"pickup_prefix: expected a non-empty string, got {self.pickup_prefix!r}")
         check_int(self.max_attempts, "max_attempts", 1)
         if self.automation_ends not in AUTOMATION_ENDS:
             raise InputError(f"automation_ends: expected one of {AUTOMATION_ENDS}, got {self.automation_ends!r}")
@@ -151,7 +157,7 @@ class Scenario:
 
     @classmethod
     def from_scene(cls, scene: Scene, options: ScenarioOptions | None = None) -> Scenario:
-        """The task in ``scene`` (logs ``log-*``, regions ``pickup-*`` and the target region).
+        """The task in ``scene`` (logs ``log-*``, pick-up regions named ``<pickup_prefix>*`` and the target region).
 
         Raises
         ------
@@ -160,7 +166,7 @@ class Scenario:
         """
         opts = options or ScenarioOptions()
         target = scene.region(opts.target_region)
-        pickups = [r for r in scene.regions if r.name.startswith("pickup")]
+        pickups = [r for r in scene.regions if r.name.startswith(opts.pickup_prefix)]
         cx, cy = float(target.center[0]), float(target.center[1])
         logs_raw = [o for o in scene.obstacles if o.name.startswith("log")]
         if not logs_raw:
@@ -171,7 +177,8 @@ class Scenario:
             x, y = float(ob.xyz[0]), float(ob.xyz[1])
             area = next((r for r in pickups if r.lower[0] <= x <= r.upper[0] and r.lower[1] <= y <= r.upper[1]), None)
             if area is None:
-                raise InputError(f"scene {scene.name!r}: log {ob.name!r} lies in no pick-up region (pickup-*)")
+                raise InputError(
+                    f"scene {scene.name!r}: log {ob.name!r} lies in no pick-up region ({opts.pickup_prefix}*)")
             axis = ob.rotation()[:, 2]
             norm = math.hypot(axis[0], axis[1])
             axis_xy = (float(axis[0] / norm), float(axis[1] / norm)) if norm > 1e-9 else (1.0, 0.0)

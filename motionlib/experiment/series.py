@@ -54,10 +54,10 @@ from ..planning.trajectory import Trajectory
 from ..sim.execute import ExecuteOptions, prepare_run
 from ..sim.loop import run_closed_loop
 from .measures import Signals
-from .panel import panel_operator
+from .panel import PanelOperator, panel_operator
 from .scenario import Scenario, ScenarioOptions
 from .segment import segment_cycles
-from .task import LoadingTask, TaskEvent
+from .task import LoadingTask, MotionSource, TaskEvent
 
 TRANSITION_BEFORE_S = 1.0
 """Transition window (000 Fig. 8): seconds before its anchor (blend start, abort or arrival) ..."""
@@ -211,6 +211,10 @@ class SeriesResult:
     events : list of TaskEvent
     error : str or None
         Why the series could not run (then the lists are empty).
+    placed : list of (int, tuple of 3 float)
+        Per log released into the target area: its cycle and the grapple point (m) as the grapple began to open.
+    peak_swing_rad : float
+        Largest grapple swing angle from the vertical (rad) of the series.
     """
 
     operator: str
@@ -227,6 +231,8 @@ class SeriesResult:
     wall_s: float = 0.0
     events: list[TaskEvent] = field(default_factory=list, repr=False)
     error: str | None = None
+    placed: list[tuple[int, tuple[float, float, float]]] = field(default_factory=list)
+    peak_swing_rad: float = 0.0
 
 
 # ====================================================================== set-up
@@ -285,6 +291,8 @@ class RunOptions:
         its rotation is the operator's); ``motionlib execute`` has it on. The position gain
         derived from the joint model applies either way.
     scenario : ScenarioOptions
+    seed : int
+        Seed of the plant's valve noise (``ExecuteOptions.seed``); 0 in the experiment.
     """
 
     time_limit_s: float = 900.0
@@ -292,6 +300,7 @@ class RunOptions:
     command_ramp: bool = False
     swing_damping: bool = False
     scenario: ScenarioOptions = field(default_factory=ScenarioOptions)
+    seed: int = 0
 
 
 class ExperimentContext:
@@ -304,18 +313,27 @@ class ExperimentContext:
     """
 
     def __init__(self, library_path: str | Path, options: RunOptions | None = None):
+        library = Library.open(library_path)
+        self._setup(library.crane, library.scene, LibraryMotions(library), options, f"{library_path}:scene_model")
+        self.library = library
+
+    @classmethod
+    def for_scene(cls, crane: Any, scene: Scene, motions: MotionSource, options: RunOptions | None = None
+                  ) -> ExperimentContext:
+        """A context on ``scene`` whose automated motions come from ``motions`` (e.g. planned ones), no library."""
+        ctx = cls.__new__(cls)
+        ctx._setup(crane, scene, motions, options, scene.source or scene.name)
+        return ctx
+
+    def _setup(self, crane: Any, scene: Scene, motions: MotionSource, options: RunOptions | None, where: str) -> None:
         self.options = options or RunOptions()
-        self.library = Library.open(library_path)
-        self.crane = self.library.crane
-        self.scene = self.library.scene
+        self.crane = crane
+        self.scene = scene
         self.scenario = Scenario.from_scene(self.scene, self.options.scenario)
-        self.motions = LibraryMotions(self.library)
-        # the obstacle guard must not push the grapple away from the logs it is to grab
-        data = self.scene.to_dict()
-        data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
-        self.guard_scene = Scene.from_dict(data, f"{library_path}:scene_model without logs", crane=self.crane)
+        self.motions = motions
+        self.guard_scene = scene_without_logs(scene, crane, f"{where} without logs")
         self.execute_options = ExecuteOptions(
-            time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard,
+            time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard, seed=self.options.seed,
             controller=ControllerParams(
                 command_ramp=self.options.command_ramp,
                 swing_damping=ControllerParams().swing_damping if self.options.swing_damping else 0.0,
@@ -323,17 +341,31 @@ class ExperimentContext:
         )
 
 
+def scene_without_logs(scene: Scene, crane: Any, file: str) -> Scene:
+    """``scene`` without its logs (obstacles ``log-*``): what the operator works on is no obstacle to keep away from.
+
+    The obstacle guard must not push the grapple away from the logs it is to grab, and the planned
+    motions of the loading cycle reach over them (the wall, stakes, piles and trees stay).
+    """
+    data = scene.to_dict()
+    data["obstacles"] = [o for o in data["obstacles"] if not o["name"].startswith("log")]
+    return Scene.from_dict(data, file, crane=crane)
+
+
 # ====================================================================== one series
 def run_series(
-    ctx: ExperimentContext, operator: str, mode: str | Mode, series: int, cycles: int | None = None
+    ctx: ExperimentContext, operator: str | PanelOperator | None, mode: str | Mode, series: int,
+    cycles: int | None = None,
 ) -> SeriesResult:
     """Run and measure one series (see the module docstring).
 
     Parameters
     ----------
     ctx : ExperimentContext
-    operator : str
-        ``O1`` .. ``O5``.
+    operator : str, PanelOperator or None
+        ``O1`` .. ``O5``, another :class:`PanelOperator`, or None: automation alone (the passive
+        operator, :class:`~motionlib.experiment.task.LoadingTask`), reported as operator and group
+        ``automation``.
     mode : str or Mode
         ``M1`` .. ``M6``.
     series : int
@@ -346,10 +378,11 @@ def run_series(
     SeriesResult
         With ``error`` set (and nothing measured) when a library selection fails.
     """
-    member = panel_operator(operator)
+    member = operator if isinstance(operator, PanelOperator) or operator is None else panel_operator(operator)
     mode = Mode.parse(mode)
     n_cycles = len(ctx.scenario.logs) if cycles is None else int(cycles)
-    result = SeriesResult(member.name, member.group, mode.value, int(series), n_cycles)
+    name, group = (member.name, member.group) if member is not None else ("automation", "automation")
+    result = SeriesResult(name, group, mode.value, int(series), n_cycles)
     t_wall = time.perf_counter()
     controller, sim = prepare_run(ctx.crane, ctx.guard_scene, mode, ctx.scenario.start_q, options=ctx.execute_options)
     task = LoadingTask(ctx.scenario, member, controller, sim, ctx.motions, series=series, cycles=n_cycles)
@@ -365,6 +398,8 @@ def run_series(
     result.finished = task.finished and loop.settled
     result.simulated_s = float(t[-1]) if t.size else 0.0
     result.events = list(task.events)
+    result.placed = list(task.placed)
+    result.peak_swing_rad = float(np.max(arrays["swing_rad"])) if t.size else 0.0
     if t.size >= 4:
         signals = Signals.from_tip(t, tip, NOISE_FILTER)
         _measure(result, ctx.scenario, task, signals, log.events, arrays["c_a"],

@@ -22,6 +22,12 @@ Each work cycle (one log, in the scenario's order):
    :meth:`Scenario.back_target`); the obstacle guard then counts the carried log.
 4. **release**: as grab, ``release_dwell_s``, into the target area (:meth:`Scenario.release_ok`).
 
+**Automation alone** (``member=None``, the passive operator, traded and shared modes only): no
+hands and no reaction time; each part is the automated motion, to the grab point and to the
+release point (so the scenario's automation ends must be ``per-log``), and the grapple acts as
+soon as the motion has ended (the tracker's arrival). A missed grab or release is tried again
+where the crane stands, after the dwell (the grapple's swing has decayed meanwhile).
+
 Events (:class:`TaskEvent`, in :attr:`LoadingTask.events`): ``cycle_start``, ``go_out``
 (automation command), ``grab_start`` (closing starts), ``grab`` (closed on the log),
 ``grab_missed``, ``go_back``, ``release_start``, ``release`` (the log lies in the target area;
@@ -81,8 +87,8 @@ class LoadingTask:
     Parameters
     ----------
     scenario : Scenario
-    member : PanelOperator
-        Whose hands and reactions.
+    member : PanelOperator or None
+        Whose hands and reactions; None: automation alone (see the module docstring).
     controller : SharedController
         The controller of the run (its mode decides manual / traded / shared; automation
         commands go to it; its obstacle guard, if any, is told when a log is carried).
@@ -99,7 +105,7 @@ class LoadingTask:
     def __init__(
         self,
         scenario: Scenario,
-        member: PanelOperator,
+        member: PanelOperator | None,
         controller: SharedController,
         sim: Any,
         motions: MotionSource,
@@ -114,6 +120,10 @@ class LoadingTask:
         self.controller = controller
         self.mode: Mode = controller.mode
         self.automated = self.mode.authority != "manual"
+        if member is None and not (self.automated and scenario.options.automation_ends == "per-log"):
+            raise InputError(f"automation alone: expected a traded or shared mode and per-log automation ends, "
+                             f"got {self.mode.value} and {scenario.options.automation_ends!r}")
+        self._reaction = member.params.reaction_time_s if member is not None else 0.0
         self.sim = sim
         self.motions = motions
         self.series = int(series)
@@ -122,10 +132,13 @@ class LoadingTask:
         self.cycle = 0
         self.attempts = {"grab": 0, "release": 0}
         self.attempt_log: list[dict[str, int]] = []  # per finished cycle: grab and release attempts
+        #: Per log released into the target area: (cycle, grapple point (m) as the grapple began to open).
+        self.placed: list[tuple[int, tuple[float, float, float]]] = []
+        self._grapple_at: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._op: SimulatedOperator | None = None
         self._phase = "wait"  # wait, hands, dwell, finished
         self._kind = "grab"  # the manual part being worked on: grab or release
-        self._t_next = member.params.reaction_time_s  # end of the current wait or dwell
+        self._t_next = self._reaction  # end of the current wait or dwell
         self._ok = False
         self._started = False
         self._takeover_logged = False
@@ -137,6 +150,10 @@ class LoadingTask:
             self._started = True
             self._event(t, "cycle_start", self._log.name)
         phase = self._phase
+        if phase == "auto":  # automation alone: the grapple acts once the motion has ended
+            if not self.controller.automation_active:
+                self._begin_dwell(t)
+            return OperatorInput(t, _REST, False)
         if phase == "hands":
             if self._op is None:
                 raise RuntimeError("LoadingTask: hands phase without an operator model")
@@ -165,6 +182,8 @@ class LoadingTask:
             return FastPlan(op, done=False, resume=self._after_hands, python_when_manual=op.phase == "done")
         if self._phase in ("wait", "dwell"):
             return FastPlan(op, python_at=self._t_next, done=False)
+        if self._phase == "auto":
+            return FastPlan(None, done=False, python_when_manual=True)
         return FastPlan(op, done=self._phase == "finished")
 
     @property
@@ -194,6 +213,10 @@ class LoadingTask:
                 self._event(obs.t, "go_out" if kind == "grab" else "go_back", f"to {_fmt(auto_target)}")
             else:
                 via = traj.waypoints[1:-1]  # the route the operator knows (above the wall)
+        if self.member is None:  # automation alone: no hands (a retry acts where the crane stands)
+            self._op = None
+            self._phase = "auto"
+            return
         seed = phase_seed(self.member.seed, self.series, self.cycle, kind, self.attempts[kind])
         self._op = SimulatedOperator(goal, self.member.params, self.mode, self.controller.joystick,
                                      self.controller.crane, seed=seed, name=self.member.name, via=via)
@@ -221,13 +244,16 @@ class LoadingTask:
         else:
             self._ok = sc.release_ok(self.sim.tip)
             dwell = sc.options.release_dwell_s
+        self._grapple_at = (float(self.sim.grapple[0]), float(self.sim.grapple[1]), float(self.sim.grapple[2]))
         self._event(t, f"{kind}_start", f"attempt {self.attempts[kind]} at {_fmt(self.sim.tip)}")
         self._phase = "dwell"
         self._t_next = t + dwell
 
     def _end_dwell(self, t: float) -> None:
         kind = self._kind
-        reaction = self.member.params.reaction_time_s
+        reaction = self._reaction
+        if self._ok and kind == "release":
+            self.placed.append((self.cycle, self._grapple_at))
         if not self._ok:
             if self.attempts[kind] < self.scenario.options.max_attempts:
                 self._event(t, f"{kind}_missed")

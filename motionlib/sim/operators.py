@@ -126,6 +126,35 @@ distrust_tau_cv           0         0.15      scalar timing spread (Gibbon 1977)
 ========================  ========  ========  ==========================================
 
 The habit parameters were set before the experiment was run with them, and not changed after.
+
+Calibration to a crane (:data:`CRANE_CALIBRATION`, :func:`operator_params`)
+-----------------------------------------------------------------------------
+The presets were reasoned for 000's lab crane (4.5 m reach). On the full-size ``forwarder`` crane
+(9.7 m reach) they made the model expert 3-4x slower in manual joint operation (M1) than the
+professional operators of 003 Table 3.1 (recorded forwarder work, Valmet 830, n = 212 per state;
+a source independent of 000's lab experiment), so the expert is calibrated for that crane only,
+against Table 3.1's medians of S6 (move grapple to logs, 4.72 s) and S8 (move logs to the bunk,
+7.5 s) in the loading cycle (:mod:`motionlib.experiment.loading_cycle`, seed 0, four logs):
+
+========================  ========  =========  ===========================================
+parameter                 lab       forwarder  why
+========================  ========  =========  ===========================================
+max_speed_m_s             0.7       1.5        0.7 m/s x the reach ratio 9.7 / 4.5 (the joint
+                                               levers' full deflection binds before it)
+via_radius_m              0.25      0.8        fitted to S6 and S8: an expert passes the
+                                               route's waypoints within 0.8 m, not 0.25 m
+                                               (with the lab's values: S6 13.6 s, S8 16.5 s)
+precision_m               0.02      0.08       grasp habit, fitted to S7: a forwarder grapple
+                                               takes a log 0.25 m off (about 2x the lab's
+                                               0.02 m scaled by the reach ratio, 0.043 m)
+settle_speed_m_s          0.05      0.2        grasp and release habit, fitted to S7 and S9:
+                                               the grapple acts once the tip moves slower than
+                                               0.2 m/s
+========================  ========  =========  ===========================================
+
+Measured after calibration (docs/loading-cycle.md): M1 S6 4.90 s (1.04x Table 3.1), S8 5.95 s
+(0.79x), S7 6.13 s (1.25x, 3 s of it the grapple dwell), S9 6.22 s (1.27x). The lab crane has no
+entry: 000's experiment runs with the presets as they are.
 """
 
 from __future__ import annotations
@@ -415,6 +444,23 @@ OPERATOR_PRESETS: dict[str, OperatorParams] = {
 }
 """The ``novice`` and ``expert`` operators (see the module docstring for every value's source)."""
 
+CRANE_CALIBRATION: dict[str, dict[str, dict[str, Any]]] = {
+    "forwarder": {"expert": {"max_speed_m_s": 1.5, "via_radius_m": 0.8, "precision_m": 0.08, "settle_speed_m_s": 0.2}},
+}
+"""Crane-specific changes to :data:`OPERATOR_PRESETS`: crane name -> preset -> parameter -> value.
+
+See "Calibration" in the module docstring; a crane without an entry uses the presets as they are
+(the lab crane of 000's experiment)."""
+
+
+def operator_params(preset: str, crane_name: str | None = None) -> OperatorParams:
+    """``OPERATOR_PRESETS[preset]`` with the calibration of crane ``crane_name`` (:data:`CRANE_CALIBRATION`), if any."""
+    if preset not in OPERATOR_PRESETS:
+        raise InputError(f"operator: expected one of {sorted(OPERATOR_PRESETS)}, got {preset!r}")
+    changes = CRANE_CALIBRATION.get(crane_name or "", {}).get(preset, {})
+    return replace(OPERATOR_PRESETS[preset], **changes) if changes else OPERATOR_PRESETS[preset]
+
+
 #: Parameters of the experts' habits (see "Expert habits" in the module docstring): off (0) for novices.
 HABIT_PARAMETERS: tuple[str, ...] = ("joint_habit", "distrust_tau_s", "distrust_tau_cv")
 
@@ -544,10 +590,10 @@ class SimulatedOperator:
         via: Any = None,
         **overrides: Any,
     ) -> SimulatedOperator:
-        """An operator from ``OPERATOR_PRESETS[name]`` (``novice``, ``expert``), optionally with overrides."""
-        if name not in OPERATOR_PRESETS:
-            raise InputError(f"operator: expected one of {sorted(OPERATOR_PRESETS)}, got {name!r}")
-        params = replace(OPERATOR_PRESETS[name], **overrides) if overrides else OPERATOR_PRESETS[name]
+        """An operator from ``OPERATOR_PRESETS[name]`` (``novice``, ``expert``) calibrated for ``crane``
+        (:func:`operator_params`), optionally with overrides."""
+        base = operator_params(name, crane.name)
+        params = replace(base, **overrides) if overrides else base
         return cls(goal_p, params, mode, joystick, crane, seed=seed, name=name, via=via)
 
     def reset(self) -> None:

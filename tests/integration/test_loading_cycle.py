@@ -1,0 +1,101 @@
+"""The forwarder loading cycle (issue 22 item 5): states add up, logs land in the bunk, seeds repeat, CLI errors."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+from click.testing import CliRunner
+from motionlib_cli.main import cli
+
+from motionlib import CycleRun, LoadingCycleOptions, loading_cycle
+from motionlib.experiment.cycle_states import STATES, SUBTASK_OF_STATE
+
+SCENE = Path(__file__).resolve().parents[2] / "obstacles" / "forwarder-site.yaml"
+#: One short cycle: automation alone and the model expert in manual joint operation, one log.
+OPTIONS = LoadingCycleOptions(logs=1, runs=(CycleRun("automation", "M6"), CycleRun("expert", "M1")), seed=3)
+
+
+class _Quiet:
+    def start(self, total: int, done: int = 0, failed: int = 0) -> None: ...
+    def advance(self, ok: bool, message: str = "") -> None: ...
+    def log(self, message: str) -> None: ...
+    def close(self) -> None: ...
+
+
+@pytest.fixture(scope="module")
+def cycle():
+    return loading_cycle(OPTIONS, progress=_Quiet()).raise_for_status()
+
+
+def _event_times(series, name: str) -> dict[int, float]:
+    out: dict[int, float] = {}
+    for e in series.events:
+        if e.name == name and e.cycle not in out:
+            out[e.cycle] = e.t
+    return out
+
+
+def test_state_times_add_up_to_the_cycle_time(cycle):
+    """S6 + S7 + S8 + S9 = cycle time = release event - cycle start event, for every cycle of every run."""
+    for run in cycle.runs:
+        assert len(run.series.cycles) == OPTIONS.logs, run.run.label
+        starts, releases = _event_times(run.series, "cycle_start"), _event_times(run.series, "release")
+        for c in run.series.cycles:
+            parts = [getattr(c, SUBTASK_OF_STATE[s]) for s in STATES]
+            assert min(parts) >= 0.0
+            assert math.isclose(math.fsum(parts), c.cycle_time_s, rel_tol=1e-12, abs_tol=1e-9)
+            assert math.isclose(c.cycle_time_s, releases[c.cycle] - starts[c.cycle], rel_tol=1e-12, abs_tol=1e-9)
+        medians = run.state_medians
+        for s in STATES:  # the reported median is the median of the cycles' state times
+            times = sorted(getattr(c, SUBTASK_OF_STATE[s]) for c in run.series.cycles)
+            assert math.isclose(medians[s], 0.5 * (times[0] + times[-1]), rel_tol=1e-12)
+
+
+def test_every_placed_log_ends_inside_the_bunk_region(cycle):
+    """Each log is released with the grapple over the bunk's release region (the box read from the YAML)."""
+    raw = yaml.safe_load(SCENE.read_text())
+    box = next(r for r in raw["regions"] if r["name"] == OPTIONS.scenario.target_region)
+    lo = [c - s / 2 for c, s in zip(box["center"], box["size"], strict=True)]
+    hi = [c + s / 2 for c, s in zip(box["center"], box["size"], strict=True)]
+    for run in cycle.runs:
+        assert run.logs_placed == OPTIONS.logs, run.run.label
+        assert sorted(k for k, _ in run.series.placed) == list(range(OPTIONS.logs))
+        for _, p in run.series.placed:
+            assert lo[0] <= p[0] <= hi[0] and lo[1] <= p[1] <= hi[1], (run.run.label, p)
+
+
+@pytest.mark.slow
+def test_the_same_seed_gives_identical_cycles(cycle):
+    again = loading_cycle(OPTIONS, progress=_Quiet())
+    for a, b in zip(cycle.runs, again.runs, strict=True):
+        assert a.series.cycles == b.series.cycles  # every float of every cycle record, exactly
+        assert a.series.placed == b.series.placed
+        assert a.series.path_p.tobytes() == b.series.path_p.tobytes()
+        assert [(e.t, e.name, e.detail) for e in a.series.events] == [(e.t, e.name, e.detail) for e in b.series.events]
+
+
+def _one_line_error(*args: str) -> str:
+    result = CliRunner().invoke(cli, ["experiment", "loading-cycle", *args])
+    assert result.exit_code != 0
+    assert isinstance(result.exception, SystemExit)  # click's clean exit, not an escaped exception
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output
+    return lines[0]
+
+
+@pytest.mark.parametrize(
+    ("args", "why"),
+    [
+        (("--runs", "automation:M1"), "automation alone needs a traded or shared mode"),
+        (("--runs", "expert"), "expected <operator>:<mode>"),
+        (("--runs", "pilot:M6"), "operator: expected one of automation, expert, novice"),
+        (("--logs", "9"), "has 4 logs, got 9"),
+        (("--spec", "no-such-spec.yaml"), "no-such-spec.yaml"),
+    ],
+)
+def test_cli_bad_input_is_one_line(args, why, tmp_path):
+    line = _one_line_error(*args, "--out", str(tmp_path / "out"))
+    assert line.startswith("Error:") and why in line
