@@ -1,6 +1,6 @@
 """Benchmark of the forwarder loading cycle against 003 Table 3.1 and issue 22's targets.
 
-Run: ``python benchmarks/loading_cycle.py [--seed S] [--logs N] [--swing-damping]``
+Run: ``python benchmarks/loading_cycle.py [--seed S] [--logs N] [--no-swing-damping]``
 
 Runs :func:`motionlib.loading_cycle` with its default runs (automation alone in M6, the model
 expert in M1 and in M6) over the pile's logs (default all four) and prints per run the median of
@@ -35,7 +35,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--logs", type=int, default=None)
-    ap.add_argument("--swing-damping", action="store_true")
+    ap.add_argument("--no-swing-damping", dest="swing_damping", action="store_false")
     args = ap.parse_args()
     result = loading_cycle(LoadingCycleOptions(logs=args.logs, seed=args.seed, swing_damping=args.swing_damping))
     print(

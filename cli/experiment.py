@@ -87,8 +87,8 @@ def log_loading(
 @click.option("--spec", "spec_path", type=click.Path(dir_okay=False),
               help="Library spec giving the crane, the scene and the planner's options "
                    "[default: libraries/forwarder-site.yaml].")
-@click.option("--swing-damping/--no-swing-damping", default=False, show_default=True,
-              help="The controller's swing damping (off, as in the log-loading experiment).")
+@click.option("--swing-damping/--no-swing-damping", default=True, show_default=True,
+              help="The controller's swing damping (on, as in motionlib execute).")
 @click.option("--time-limit", default=600.0, show_default=True,
               type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one run (s).")

@@ -62,6 +62,7 @@ FORWARDER_SCENARIO = ScenarioOptions(
     grab_across_m=0.25,
     grab_along_m=0.8,
     grab_height_tol_m=0.3,
+    grapple_still_rad=0.03,
     automation_ends="per-log",
     target_region="bunk-drop",
     target_point="bunk-center",
@@ -77,6 +78,9 @@ FORWARDER_SCENARIO = ScenarioOptions(
 * grab tolerances: grapple point within 0.25 m across the log (an open forwarder grapple spans
   ~1.3 m), 0.8 m along it from its centre (a 4 m log held near its balance point), tip within
   0.3 m of the grab height;
+* the grapple closes and opens only once its swing amplitude is below 0.03 rad (3 cm at the end of
+  its 1.1 m rod; ``LoopOptions.settle_swing_rad``, the settle tolerance): a swinging grapple cannot be
+  lowered onto a log, so the wait for the swing counts in S7 and S9;
 * area spheres of 1 m (000 section 3.4's lab value) over ``pile-left`` and ``bunk-drop``;
 * per-log automation ends (the grab and release points), since a forwarder's automated motion
   goes to the log, not to a fix point.
@@ -143,10 +147,10 @@ class LoadingCycleOptions:
         Longest simulated time of one run (s).
     scenario : ScenarioOptions
     swing_damping : bool
-        The controller's swing damping (``ControllerParams.swing_damping``). Off by default, as in
-        the log-loading experiment (:class:`~motionlib.experiment.series.RunOptions`; 000 describes
-        no anti-sway): with it on, today's tracker arrives 1.4-2.2x later than planned while the
-        damping drags the tip (issue 22; docs/loading-cycle.md gives the numbers).
+        The controller's swing damping (``ControllerParams.swing_damping``), on by default as in
+        ``motionlib execute``: the grapple must be still before it closes or opens
+        (``FORWARDER_SCENARIO.grapple_still_rad``). Off, the swing decays on its own (the log-loading
+        experiment runs without it, as 000 describes no anti-sway).
     """
 
     spec: Path = DEFAULT_CYCLE_SPEC
@@ -155,7 +159,7 @@ class LoadingCycleOptions:
     seed: int = 0
     time_limit_s: float = 600.0
     scenario: ScenarioOptions = FORWARDER_SCENARIO
-    swing_damping: bool = False
+    swing_damping: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "spec", Path(self.spec))

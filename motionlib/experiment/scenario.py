@@ -90,6 +90,12 @@ class ScenarioOptions:
         Grab tolerances (m): grapple point across / along the log axis, tip height.
     max_attempts : int
         Tries per grab or release before the task moves on (the cycle is flagged).
+    grapple_still_rad : float or None
+        None: the grapple closes or opens wherever its swing is (000's task: the operator judges it).
+        A number (rad): it closes or opens only once its swing amplitude
+        (:attr:`SimulatedCrane.swing_amplitude_rad <motionlib.sim.plant.SimulatedCrane.swing_amplitude_rad>`)
+        is below it; the hands (or the automation) hold still until then, so the wait counts in the
+        grab and release times. A swinging grapple cannot be lowered onto a log.
     automation_ends : str
         ``fixed`` or ``per-log`` (see the module docstring).
     fix_point, target_point : str
@@ -111,6 +117,7 @@ class ScenarioOptions:
     grab_along_m: float = param(0.4, gt=0.0)
     grab_height_tol_m: float = param(0.15, gt=0.0)
     max_attempts: int = 4
+    grapple_still_rad: float | None = param(None, gt=0.0, optional=True)
     automation_ends: str = "fixed"
     fix_point: str = "pickup-between"
     target_point: str = "target-center"

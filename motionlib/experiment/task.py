@@ -14,7 +14,8 @@ Each work cycle (one log, in the scenario's order):
    (traded), or wait for it to arrive. In manual modes (M1, M4) the hands drive all the way,
    through the selected trajectory's waypoints (the route above the wall).
 2. **grab**: once the hands are done (tip still, within their precision of their estimate of
-   the grab point) and no automated motion runs, the grapple closes: the operator holds still
+   the grab point), no automated motion runs and, with ``ScenarioOptions.grapple_still_rad``,
+   the grapple's swing is below it, the grapple closes: the operator holds still
    for ``grab_dwell_s``. The grab succeeds if the grapple was over the log
    (:meth:`Scenario.grab_ok`, judged when closing starts); otherwise, after the reaction time,
    the operator tries again with a fresh estimate.
@@ -25,7 +26,7 @@ Each work cycle (one log, in the scenario's order):
 **Automation alone** (``member=None``, the passive operator, traded and shared modes only): no
 hands and no reaction time; each part is the automated motion, to the grab point and to the
 release point (so the scenario's automation ends must be ``per-log``), and the grapple acts as
-soon as the motion has ended (the tracker's arrival). A missed grab or release is tried again
+soon as the motion has ended (the tracker's arrival) and, with ``grapple_still_rad``, is still. A missed grab or release is tried again
 where the crane stands, after the dwell (the grapple's swing has decayed meanwhile).
 
 Events (:class:`TaskEvent`, in :attr:`LoadingTask.events`): ``cycle_start``, ``go_out``
@@ -150,8 +151,8 @@ class LoadingTask:
             self._started = True
             self._event(t, "cycle_start", self._log.name)
         phase = self._phase
-        if phase == "auto":  # automation alone: the grapple acts once the motion has ended
-            if not self.controller.automation_active:
+        if phase == "auto":  # automation alone: the grapple acts once the motion has ended (and it is still)
+            if not self.controller.automation_active and self._grapple_still():
                 self._begin_dwell(t)
             return OperatorInput(t, _REST, False)
         if phase == "hands":
@@ -231,9 +232,14 @@ class LoadingTask:
         if op.takeover is not None and not self._takeover_logged:
             self._takeover_logged = True
             self._event(op.takeover[0], "takeover", op.takeover[1])
-        if op.done(obs) and not self.controller.automation_active:
+        if op.done(obs) and not self.controller.automation_active and self._grapple_still():
             self._begin_dwell(obs.t)
         return inp
+
+    def _grapple_still(self) -> bool:
+        """The grapple may close or open: its swing is below ``ScenarioOptions.grapple_still_rad`` (or no limit)."""
+        limit = self.scenario.options.grapple_still_rad
+        return limit is None or self.sim.swing_amplitude_rad < limit
 
     def _begin_dwell(self, t: float) -> None:
         sc, log, kind = self.scenario, self._log, self._kind
