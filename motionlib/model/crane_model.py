@@ -36,6 +36,9 @@ _TURN = 2.0 * math.pi
 #: Highest hydraulic natural frequency (Hz) the plant's 1 kHz semi-implicit Euler step of the oil spring
 #: integrates stably with margin (omega h < 2 needs < 318 Hz).
 MAX_NATURAL_FREQ_HZ = 100.0
+#: Natural frequency (Hz) of every joint of a crane file without the oil springs (``hydraulics.oil_volume``):
+#: assumption, the lab boom's 2.6 Hz by the formula (the single frequency of the plant before the per-joint ones).
+DEFAULT_NATURAL_FREQ_HZ = 2.5
 #: Plausibility ranges of a crane file's numbers (docs/crane-format.md, "Plausibility"): the plausible
 #: range covers lab cranes and full-size forestry cranes with margin; the numeric range (files with
 #: ``plausibility: relaxed``) is what the kinematics, the solvers and the collision library handle.

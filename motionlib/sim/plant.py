@@ -117,7 +117,7 @@ from numba import njit
 from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
-from ..model.crane_model import MAX_NATURAL_FREQ_HZ
+from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ, MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
@@ -125,8 +125,6 @@ from .contact import ContactParams, ContactSurfaces, penalty_force
 from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
-#: Natural frequency (Hz) of every joint when neither ``SimParams.natural_freq_hz`` nor the crane file gives one.
-DEFAULT_NATURAL_FREQ_HZ = 2.5
 
 
 @dataclass(frozen=True)
