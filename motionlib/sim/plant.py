@@ -583,7 +583,7 @@ class SimulatedCrane:
     capacity : tuple of n float or None
         Each actuated joint's relief capacity ``p_relief d_i`` (N m; N for the telescope) when the plant
         bounds the pressure (second order, the crane file's ``hydraulics.relief_pressure``), else None.
-    log : tuple of 3 float or None
+    held_log : tuple of 3 float or None
         The log the grapple holds or closes on (:meth:`grasp`): mass (kg), depth (m), inertia (kg m^2).
     arrays : PlantArrays
         The arrays :func:`plant_period` integrates (the state lives there; the attributes above are
@@ -716,7 +716,7 @@ class SimulatedCrane:
             inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
         )
         self.set_payload(self.payload_frac)
-        self.log: tuple[float, float, float] | None = None
+        self.held_log: tuple[float, float, float] | None = None
 
     # --------------------------------------------------------------- read-out
     t = property(lambda self: float(self.arrays.clock[C_T]), doc="Simulated time (s).")
@@ -794,28 +794,28 @@ class SimulatedCrane:
             A log is held already; bad numbers; the crane file gives no ``dynamics.grapple_close_time``
             (the grapple's closing time) or the plant no joint inertia.
         """
-        if self.log is not None:
+        if self.held_log is not None:
             raise InputError("grasp: the grapple holds a log already (release it first)")
         m = float(check_scalar(mass_kg, "mass_kg", gt=0.0))
         d = float(check_scalar(depth_m, "depth_m", gt=0.0, le=2.0 * self.length_m))
         i = float(check_scalar(inertia_kg_m2, "inertia_kg_m2", ge=0.0))
-        self.log = (m, d, i)
+        self.held_log = (m, d, i)
         self._schedule(self.crane.model.grapple_close_time, "grapple_close_time")
 
     def release(self) -> None:
         """Open the grapple; the log leaves the rod after the grapple's opening time (module docstring)."""
-        if self.log is None:
+        if self.held_log is None:
             raise InputError("release: the grapple holds no log")
-        self.log = None
+        self.held_log = None
         self._schedule(self.crane.model.grapple_open_time, "grapple_open_time")
 
     def pendulum(self) -> tuple[float, float, float]:
-        """The hanging body with :attr:`log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the tip
+        """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the tip
         ``I_pivot`` (kg m^2) (module docstring, "Grasp and release")."""
         m0, l0 = self._mass, self.length_m
         mass, moment, inertia = m0, m0 * l0, m0 * l0 * l0
-        if self.log is not None:
-            m, d, i = self.log
+        if self.held_log is not None:
+            m, d, i = self.held_log
             mass, moment, inertia = mass + m, moment + m * d, inertia + m * d * d + i
         return mass, moment / mass if mass > 0.0 else l0, inertia
 
