@@ -220,3 +220,22 @@ def test_grasp_needs_the_grapple_timing_and_one_log_at_a_time(lab):
         sim.grasp(LOG_MASS, 0.45)
     with pytest.raises(InputError):
         SimulatedCrane(lab, Q_MID).grasp(-1.0, 0.45)
+
+
+def test_heavy_log_on_the_forwarder_holds_still_at_its_static_loads():
+    """A 600 kg log on the forwarder's 300 kg grapple, the arm stretched out: the hanging mass outweighs the jib's
+    inertia at the tip (m b^2 / I > 1, where the one-substep-lagged reaction alone grows each substep); with the
+    mass in the joints' inertia the plant comes to rest holding tau = J^T (0, 0, -M g)."""
+    fw = Crane.load("forwarder")
+    q0 = np.array([0.0, 0.2, -0.2, 2.0])
+    prm = SimParams(natural_freq_hz=None, swing_damping_per_s=6.0, deadband_frac=0.0)
+    g, m0, inertia = prm.gravity_m_s2, fw.model.load_mass, np.array(fw.model.joint_inertia)
+    sim = SimulatedCrane(fw, q0, prm)
+    log = 600.0
+    b = -fw.jacobian(q0)[2]  # the rod hangs straight down
+    assert ((m0 + log) * b * b / inertia).max() > 1.0
+    sim.grasp(log, fw.model.grapple_length - 0.15, log * (3 * 0.3**2 / 4 + 4.0**2) / 12)
+    _hold(sim, fw.model.grapple_close_time + 12.0)
+    assert np.all(np.isfinite(sim.qd)) and np.abs(sim.qd).max() < 1e-4
+    expected = fw.jacobian(np.array(sim.q)).T @ np.array([0.0, 0.0, -(m0 + log) * g])
+    np.testing.assert_allclose(-sim.arrays.joints[S, :4] * inertia, expected, rtol=1e-4, atol=1e-2)
