@@ -245,7 +245,12 @@ class ControllerParams:
     joint_natural_freq_hz, joint_damping_ratio : float
         The identified second-order model of the joints' velocity response (000 section 2.1)
         that the automation's position gain is derived from (:meth:`SharedController.position_gain_max`);
-        here the simulated plant's values (:class:`~motionlib.sim.plant.SimParams`).
+        here the simulated plant's values (:class:`~motionlib.sim.plant.SimParams`): 2.5 Hz for every
+        joint, the default plant's. ``joint_natural_freq_hz=None``: each joint its own frequency from the
+        crane file's oil springs (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`,
+        the plant's ``SimParams(natural_freq_hz=None)``; 2.5 Hz on a file without them). Not the default
+        yet: with both per joint, 12 closed-loop tests do not settle (docs/runtime.md, "Per-joint natural
+        frequencies").
     position_gain_margin : float
         Gain margin of the automation's position loop (the tracker's final convergence
         ``end_gain_per_s`` is capped at the gain with this margin on the joint model loaded by
@@ -271,7 +276,7 @@ class ControllerParams:
     swing_damping: float = param(0.45, ge=0.0, le=2.0)
     swing_damping_max_m_s: float = param(1.0, ge=0.0)
     swing_damping_deadband_rad: float = param(0.015, ge=0.0)
-    joint_natural_freq_hz: float = param(2.5, gt=0.0, le=100.0)
+    joint_natural_freq_hz: float | None = param(2.5, gt=0.0, le=100.0, optional=True)
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     position_gain_margin: float = param(3.0, ge=0.0)
 

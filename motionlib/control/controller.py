@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
+from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import TipKinematics, Vec3, Vec4, tip_speed
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
@@ -282,25 +283,31 @@ class SharedController:
 
         The automation closes a position loop ``p_dot = k (p_goal - p)`` (the tracker's final
         convergence ``k_end``) around joints whose velocity responds as the identified
-        second-order model ``omega^2 / (s^2 + 2 zeta omega s + omega^2)`` (000 section 2.1;
-        ``ControllerParams.joint_natural_freq_hz``, ``joint_damping_ratio``). The load on the
+        second-order model ``omega_i^2 / (s^2 + 2 zeta omega_i s + omega_i^2)`` (000 section 2.1;
+        ``ControllerParams.joint_natural_freq_hz`` for every joint, or with None each joint's own from the
+        crane file, :meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`;
+        ``joint_damping_ratio``). The load on the
         rod adds ``rho_i = m |J_i|^2 / I_i`` to joint ``i``'s inertia (``m`` the crane's
         ``load_mass``, ``I_i`` its ``joint_inertia``, ``J_i`` the tip Jacobian's column), so
         spring and damping act on ``1 + rho`` times the inertia: ``2 zeta omega`` becomes
         ``2 zeta omega / (1 + rho)``. The loop ``k / s`` times that response has its phase
         crossover at the natural frequency, where its gain is ``k (1 + rho) / (2 zeta omega)``;
-        a gain margin ``GM`` (``position_gain_margin``) gives::
+        a gain margin ``GM`` (``position_gain_margin``) on every joint gives::
 
-            k_max = 2 zeta omega / (GM (1 + max_i rho_i))
+            k_max = min_i 2 zeta omega_i / (GM (1 + rho_i))
 
-        (the largest ``rho`` over the joints and about 50 of the configurations, evenly spaced, and the
-        last). ``inf`` when the margin is 0 (no cap).
+        (each joint's largest ``rho_i`` over about 50 of the configurations, evenly spaced, and the
+        last; with one ``omega`` for all joints ``2 zeta omega / (GM (1 + max_i rho_i))``). ``inf`` when
+        the margin is 0 (no cap).
         """
         prm = self.params
         if prm.position_gain_margin == 0.0:
             return math.inf
-        rho = 0.0
         model = self.crane.model
+        omega = model.natural_frequencies_rad_s() if prm.joint_natural_freq_hz is None else None
+        if omega is None:
+            omega = (2.0 * math.pi * (prm.joint_natural_freq_hz or DEFAULT_NATURAL_FREQ_HZ),) * 4
+        rho = [0.0] * 4
         if model.load_mass and model.joint_inertia is not None:
             qs = np.atleast_2d(np.asarray(q, dtype=np.float64))
             inv_inertia = [model.load_mass / float(i) for i in model.joint_inertia]
@@ -308,9 +315,9 @@ class SharedController:
                 _, jac = self.kin.tip_jacobian(row[0], row[1], row[2], row[3])
                 for i in range(4):
                     r = (jac[i] ** 2 + jac[4 + i] ** 2 + jac[8 + i] ** 2) * inv_inertia[i]
-                    rho = max(rho, r)
-        omega = 2.0 * math.pi * prm.joint_natural_freq_hz
-        return 2.0 * prm.joint_damping_ratio * omega / (prm.position_gain_margin * (1.0 + rho))
+                    rho[i] = max(rho[i], r)
+        return min(2.0 * prm.joint_damping_ratio * w / (prm.position_gain_margin * (1.0 + r))
+                   for w, r in zip(omega, rho, strict=True))
 
     def go_to(
         self, goal_p: Any, gains: Any = (1.5, 1.5, 1.5), v_max_m_s: float = 0.5, t: float = 0.0

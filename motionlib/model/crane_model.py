@@ -29,11 +29,16 @@ ROTATOR_NAME = "rotator"
 CRANES_DIR = Path(__file__).parent / "cranes"
 #: The :class:`CraneModel` fields of the joints' oil springs (optional; left out of ``to_dict`` when None).
 STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
+#: The :class:`CraneModel` fields of the load path (optional; left out of ``to_dict`` when None).
+LOAD_PATH_FIELDS: tuple[str, ...] = ("relief_pressure", "grapple_close_time", "grapple_open_time")
 
 _TURN = 2.0 * math.pi
 #: Highest hydraulic natural frequency (Hz) the plant's 1 kHz semi-implicit Euler step of the oil spring
 #: integrates stably with margin (omega h < 2 needs < 318 Hz).
 MAX_NATURAL_FREQ_HZ = 100.0
+#: Natural frequency (Hz) of every joint of a crane file without the oil springs (``hydraulics.oil_volume``):
+#: assumption, the lab boom's 2.6 Hz by the formula (the single frequency of the plant before the per-joint ones).
+DEFAULT_NATURAL_FREQ_HZ = 2.5
 #: Plausibility ranges of a crane file's numbers (docs/crane-format.md, "Plausibility"): the plausible
 #: range covers lab cranes and full-size forestry cranes with margin; the numeric range (files with
 #: ``plausibility: relaxed``) is what the kinematics, the solvers and the collision library handle.
@@ -54,6 +59,8 @@ PLAUSIBLE: dict[str, Plausible] = {
     # pure mineral oil ~1.5-1.8 GPa, a gas-laden oil column in soft hoses well below 0.3 GPa)
     "bulk_modulus": Plausible(1e8, 2.5e9, 1e6, 1e11, "Pa"),
     "oil_volume": Plausible(1e-5, 0.5, 1e-8, 100.0, "m^3"),  # oil under compression per joint
+    # relief valves' setting: small lab and mobile hydraulics (~5 MPa) to high-pressure cranes (~35 MPa)
+    "relief_pressure": Plausible(2e6, 4.5e7, 1e3, 1e9, "Pa"),
     # sqrt(4 beta d^2 / (V I)) / 2 pi: slow cranes to stiff lab rigs; the numeric bound keeps the plant's
     # 1 kHz step of the oil spring stable (MAX_NATURAL_FREQ_HZ)
     "natural_frequency": Plausible(0.1, 50.0, 1e-3, MAX_NATURAL_FREQ_HZ, "Hz"),
@@ -65,7 +72,33 @@ PLAUSIBLE: dict[str, Plausible] = {
     "load_mass": Plausible(1.0, 1e4, 1e-3, 1e6, "kg"),
     "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
     "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
+    "grapple_time": Plausible(0.1, 10.0, 1e-3, 1e3, "s"),  # grapple_close_time, grapple_open_time
 }
+
+
+def joint_capacity(relief_pressure_pa: float, displacement: float) -> float:
+    """Largest force or torque ``C = p_relief d`` (N m for a rotary joint, N for the telescope) of a joint's actuator.
+
+    The relief valve caps the pressure difference across the actuator at ``p_relief``; the actuator
+    turns pressure into torque by its displacement ``d`` (m^3/rad: torque = pressure x d, since the
+    hydraulic power ``p Q`` with ``Q = d qd`` equals the mechanical power ``tau qd``; m^3/m = m^2:
+    force = pressure x area). Merritt 1967, *Hydraulic Control Systems*, ch. 5 (load pressure times
+    area is the actuator's force); one displacement in both directions (the piston and annulus areas
+    are not told apart) is an assumption of the crane file.
+
+    Parameters
+    ----------
+    relief_pressure_pa : float
+        ``p_relief`` (Pa).
+    displacement : float
+        ``d`` (m^3/rad or m^3/m).
+
+    Returns
+    -------
+    float
+        ``C`` (N m or N).
+    """
+    return relief_pressure_pa * displacement
 
 
 def natural_frequency_rad_s(bulk_modulus_pa: float, displacement: float, oil_volume_m3: float,
@@ -135,6 +168,11 @@ class CraneModel:
     the grapple and its log about the hanging axis) on a crane with a rotator. With
     ``displacement`` and ``joint_inertia`` they give each joint's natural frequency
     (:meth:`natural_frequencies_rad_s`).
+
+    The load path (optional, ``None`` without them): ``relief_pressure`` (Pa, ``hydraulics.relief_pressure``:
+    the relief valves' setting; with ``displacement`` each joint's capacity, :meth:`joint_capacities`) and
+    ``grapple_close_time``, ``grapple_open_time`` (s, ``dynamics``: the grapple's closing and opening
+    time, after which a grasped log hangs on the rod or has left it).
     """
 
     name: str
@@ -164,6 +202,22 @@ class CraneModel:
     oil_volume: tuple[float, ...] | None = None
     rotator_oil_volume: float | None = None
     rotator_inertia: float | None = None
+    relief_pressure: float | None = None
+    grapple_close_time: float | None = None
+    grapple_open_time: float | None = None
+
+    def joint_capacities(self, with_rotator: bool = False) -> tuple[float, ...] | None:
+        """Each joint's relief-valve capacity ``p_relief d_i`` (N m, N for the telescope), joint order.
+
+        :func:`joint_capacity` with the file's ``hydraulics.relief_pressure`` and ``displacement``; with
+        ``with_rotator`` on a crane with a rotator, the rotator's last. None without ``relief_pressure``.
+        """
+        if self.relief_pressure is None or self.displacement is None:
+            return None
+        d = list(self.displacement)
+        if with_rotator and self.rotator is not None and self.rotator_displacement is not None:
+            d.append(self.rotator_displacement)
+        return tuple(joint_capacity(self.relief_pressure, di) for di in d)
 
     @property
     def has_stiffness(self) -> bool:
@@ -207,7 +261,8 @@ class CraneModel:
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
-        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", *STIFFNESS_FIELDS):
+        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", *STIFFNESS_FIELDS,
+                    *LOAD_PATH_FIELDS):
             if out[key] is None:
                 del out[key]
         return out
@@ -262,6 +317,8 @@ class CraneModel:
                 out["hydraulics"]["oil_volume"] = dict(zip(JOINT_NAMES, self.oil_volume, strict=True))
                 if self.rotator_oil_volume is not None:
                     out["hydraulics"]["oil_volume"][ROTATOR_NAME] = self.rotator_oil_volume
+            if self.relief_pressure is not None:
+                out["hydraulics"]["relief_pressure"] = self.relief_pressure
         out["geometry"] = {k: getattr(self, k) for k in (
             "column_radius", "boom_radius", "jib_radius", "telescope_radius", "grapple_length", "grapple_radius",
             "log_length", "log_diameter")}
@@ -270,6 +327,9 @@ class CraneModel:
                                "load_mass": self.load_mass}
             if self.rotator_inertia is not None:
                 out["dynamics"]["joint_inertia"][ROTATOR_NAME] = self.rotator_inertia
+            if self.grapple_close_time is not None:
+                out["dynamics"]["grapple_close_time"] = self.grapple_close_time
+                out["dynamics"]["grapple_open_time"] = self.grapple_open_time
         return out
 
     @property
@@ -338,7 +398,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         rotator = _read_joint(top.section(ROTATOR_NAME), ROTATOR_NAME, "revolute", r["slew"])
 
     pump_flow = displacement = rotator_displacement = None
-    bulk_modulus = oil_volume = rotator_oil_volume = None
+    bulk_modulus = oil_volume = rotator_oil_volume = relief_pressure = None
     vsec: Section | None = None
     names = JOINT_NAMES + ((ROTATOR_NAME,) if rotator is not None else ())
     if top.has("hydraulics"):
@@ -354,6 +414,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
             vsec.done()
             oil_volume = volumes[:4]
             rotator_oil_volume = volumes[4] if rotator is not None else None
+        if hyd.has("relief_pressure"):
+            relief_pressure = hyd.number("relief_pressure", gt=0, plausible=r["relief_pressure"])
         hyd.done()
         for n, d in zip(names, values, strict=True):
             dsec.check_plausible(n, pump_flow / d, r["pump_speed"], "the speed pump_flow / displacement: ")
@@ -368,7 +430,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
-    joint_inertia = load_mass = rotator_inertia = None
+    joint_inertia = load_mass = rotator_inertia = close_time = open_time = None
     if top.has("dynamics"):
         dyn = top.section("dynamics")
         isec = dyn.section("joint_inertia")
@@ -377,6 +439,9 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
             rotator_inertia = isec.number(ROTATOR_NAME, gt=0, plausible=r["rotator_inertia"])
         isec.done()
         load_mass = dyn.number("load_mass", gt=0, plausible=r["load_mass"])
+        if dyn.has("grapple_close_time") or dyn.has("grapple_open_time"):  # both keys or neither
+            close_time = dyn.number("grapple_close_time", gt=0, plausible=r["grapple_time"])
+            open_time = dyn.number("grapple_open_time", gt=0, plausible=r["grapple_time"])
         dyn.done()
     if vsec is not None and joint_inertia is None:
         top.fail("dynamics", "required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)")
@@ -406,6 +471,9 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         oil_volume=oil_volume,
         rotator_oil_volume=rotator_oil_volume,
         rotator_inertia=rotator_inertia,
+        relief_pressure=relief_pressure,
+        grapple_close_time=close_time,
+        grapple_open_time=open_time,
         **radii,
     )
     if vsec is not None:  # each joint's natural frequency sqrt(4 beta d^2 / (V I)) / 2 pi must be plausible

@@ -529,7 +529,7 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
         counters[N_ROWS] = k + 1
         cmd = (cs[S_CMD], cs[S_CMD + 1], cs[S_CMD + 2], cs[S_CMD + 3])
         plant_period(cmd, 0.0, dt, plant.valve, plant.prm, plant.clock, plant.normals, plant.u, plant.joints,
-                     plant.a_relief, plant.w2, plant.zw2, plant.displacement, plant.q_min, plant.q_max, plant.at_stop,
+                     plant.relief, plant.w2, plant.zw2, plant.displacement, plant.q_min, plant.q_max, plant.at_stop,
                      plant.g, plant.pend, plant.inv_inertia, plant.planes)
         counters[N_STEPS] += 1
         done = op.state[X_PHASE] == DONE if config[L_DONE] < 0.0 else config[L_DONE] != 0.0

@@ -25,9 +25,25 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
    a change of the load ``f'`` excites the oscillation (``m v'' = (A / C)(Q - A v) + F'``,
    Merritt 1967, *Hydraulic Control Systems*, ch. 5, with ``C`` the oil compliance).
    Semi-implicit Euler (``s`` first, then ``v`` with the new ``s``) at the 1 kHz substep;
-4. **relief valves**: the net acceleration is bounded, ``|v'| <= a_relief`` (the cylinder
-   pressure is limited); the bounded part of ``s`` is dropped (``s = -f +- a_relief``);
-5. position by the trapezoidal rule (end stops are applied by the plant).
+4. **relief valves**: the relief valve caps the pressure, so the actuator's force per unit inertia
+   is bounded, ``|s| <= C_i / I_i`` (``C_i = p_relief d_i``, N m or N:
+   :func:`~motionlib.model.crane_model.joint_capacity`, from the crane file's
+   ``hydraulics.relief_pressure``); the acceleration is then ``v' = s + f``, so a load above the
+   capacity drives the joint backwards (it sags: ``v' = (C_i - tau_load) / I_i`` with the load
+   torque ``tau_load = -f I_i``) and the acceleration a joint can reach falls with its load. No load-holding
+   (over-centre) valve is modelled: an overloaded joint yields as through its port relief valve
+   (assumption). A crane file without ``relief_pressure`` keeps the older bound on the net
+   acceleration, ``|v'| <= a_relief`` (``SimParams.accel_factor`` times the planning limit), the
+   bounded part of ``s`` dropped (``s = -f +- a_relief``);
+5. **the carried mass** (added mass): the hanging mass ``m`` moves with the tip along the rod, so the
+   joints move the inertia ``diag(I) + m b b^T`` (``b_i = J_i . e``, ``e`` the rod's unit direction,
+   ``J_i`` the tip Jacobian's column). The load ``f`` of the rod's force lags one substep behind the
+   accelerations it reacts to; explicitly, that coupling grows by about ``-m b_i^2 / I_i`` per substep,
+   unstable once the hanging mass outweighs a joint's inertia at the tip (a log on the forwarder's jib).
+   The accelerations therefore solve ``(diag(I) + m b b^T) v'_n = I (s + f) + m b (b . v'_{n-1})``
+   (the lagged along-rod part of ``f`` replaced by the implicit one; Sherman-Morrison, ``O(n)``): the
+   same as ``v' = s + f`` for a steady acceleration;
+6. position by the trapezoidal rule (end stops are applied by the plant).
 
 ``model="first_order"`` (the fast option): no spool state and no compliance; the joint
 velocity follows the pump-shared command with the first-order lag
@@ -54,65 +70,90 @@ from numba import njit
 
 from .pump import flow_share
 
-#: Rows of the joint state array (5, n) of :func:`actuators_substep`.
-Q, V, X, S, Y = range(5)
+#: Rows of the joint state array (6, n) of :func:`actuators_substep`.
+Q, V, X, S, Y, A = range(6)
+#: Rows of the relief array (2, n) of :func:`actuators_substep`: the bound of the net acceleration and of the
+#: actuator's force per unit inertia ``C_i / I_i`` (inf: not bounded).
+A_NET, S_MAX = range(2)
 
 
 @njit(cache=True)
-def actuators_substep(state, u, f, h: float, alpha: float, second_order: bool, w2, zw2,
-                      a_relief, displacement, pump_flow: float) -> float:
+def actuators_substep(state, u, f, b, bm, h: float, alpha: float, second_order: bool, w2, zw2,
+                      relief, displacement, pump_flow: float) -> float:
     """Advance every joint by one substep ``h`` (s), in place; returns the flow-sharing factor ``k``.
 
-    Steps 1-5 of the module docstring.
+    Steps 1-6 of the module docstring.
 
     Parameters
     ----------
-    state : ndarray, shape (5, n)
-        Rows ``Q, V, X, S, Y``: positions (rad, m), velocities, valve states (the speeds the valves
-        demand), pressure terms (per unit inertia, rad/s^2, m/s^2) and the pump-shared speeds.
+    state : ndarray, shape (6, n)
+        Rows ``Q, V, X, S, Y, A``: positions (rad, m), velocities, valve states (the speeds the valves
+        demand), pressure terms (per unit inertia, rad/s^2, m/s^2), the pump-shared speeds and the
+        accelerations of the last substep.
     u : ndarray, shape (n,)
         Valve commands after dead band and saturation (rad/s, m/s).
     f : ndarray, shape (n,)
         Load per unit inertia (rad/s^2, m/s^2).
+    b, bm : ndarray, shape (n,)
+        The hanging mass's coupling (step 5): ``b_i = J_i . e`` (m, or 1 for the telescope) and
+        ``m b_i / I_i``; zeros: none.
     h, alpha : float
         Substep (s) and the valve's exact step ``1 - exp(-h / tau_v)``.
     second_order : bool
         The oil-compliance model; False: the first-order option.
     w2, zw2 : ndarray, shape (n,)
         Each joint's ``omega_i^2`` (1/s^2) and ``2 zeta omega_i`` (1/s).
-    a_relief : ndarray, shape (n,)
-        Acceleration bound of each joint.
+    relief : ndarray, shape (2, n)
+        Rows ``A_NET``: bound of each joint's net acceleration; ``S_MAX``: bound ``C_i / I_i`` of its
+        actuator's force per unit inertia (rad/s^2, m/s^2; inf: none). The first-order option uses ``A_NET``.
     displacement : ndarray, shape (n,)
         ``d_i`` (m^3/rad, m^3/m).
     pump_flow : float
         ``Q_pump`` (m^3/s); 0 or less: no pump limit.
     """
     n = u.shape[0]
-    q, v, x, s, y = state[Q], state[V], state[X], state[S], state[Y]
+    q, v, x, s, y, acc = state[Q], state[V], state[X], state[S], state[Y], state[A]
+    a_net, s_max = relief[A_NET], relief[S_MAX]
     for i in range(n):
         x[i] = x[i] + (u[i] - x[i]) * alpha if second_order else u[i]
     k = flow_share(x, displacement, pump_flow) if pump_flow > 0.0 else 1.0
+    along = 0.0  # b . v'_{n-1}: the tip's last acceleration along the rod
+    for i in range(n):
+        along += b[i] * acc[i]
     for i in range(n):
         yi = k * x[i]
         y[i] = yi
         if second_order:
             fi = f[i]
             si = s[i] + h * (w2[i] * (yi - v[i]) - zw2[i] * (s[i] + fi))
+            si = min(max(si, -s_max[i]), s_max[i])  # the relief valve caps the pressure
             a = si + fi
-            if a > a_relief[i]:
-                a = a_relief[i]
+            if a > a_net[i]:
+                a = a_net[i]
                 si = a - fi
-            elif a < -a_relief[i]:
-                a = -a_relief[i]
+            elif a < -a_net[i]:
+                a = -a_net[i]
                 si = a - fi
             s[i] = si
-            dv = a * h
+            acc[i] = a + bm[i] * along  # step 5's right-hand side, per unit inertia
         else:
             dv = (yi - v[i]) * alpha
-            c = a_relief[i] * h
+            c = a_net[i] * h
             dv = c if dv > c else (-c if dv < -c else dv)
-        q[i] += (v[i] + 0.5 * dv) * h
-        v[i] += dv
+            acc[i] = dv / h
+            q[i] += (v[i] + 0.5 * dv) * h
+            v[i] += dv
+    if second_order:
+        bx = bb = 0.0
+        for i in range(n):
+            bx += b[i] * acc[i]
+            bb += b[i] * bm[i]
+        c = bx / (1.0 + bb)
+        for i in range(n):
+            acc[i] -= bm[i] * c
+            dv = acc[i] * h
+            q[i] += (v[i] + 0.5 * dv) * h
+            v[i] += dv
     return k
 
 
@@ -137,7 +178,9 @@ class HydraulicJoints:
     damping_ratio : float
         ``zeta``.
     a_relief : sequence of n float
-        Acceleration bound of each joint (rad/s^2, m/s^2).
+        Bound of each joint's net acceleration (rad/s^2, m/s^2; inf: none).
+    s_max : sequence of n float or None
+        Bound ``C_i / I_i`` of each joint's actuator force per unit inertia (rad/s^2, m/s^2); None: none.
     displacement : sequence of n float or None
         ``d_i`` (m^3/rad, m^3/m); None: no pump limit.
     pump_flow : float or None
@@ -145,8 +188,10 @@ class HydraulicJoints:
 
     Attributes
     ----------
-    state : ndarray, shape (5, n)
-        Rows ``Q, V, X, S, Y`` of :func:`actuators_substep`.
+    state : ndarray, shape (6, n)
+        Rows ``Q, V, X, S, Y, A`` of :func:`actuators_substep`.
+    relief : ndarray, shape (2, n)
+        Rows ``A_NET, S_MAX`` of :func:`actuators_substep`.
     omega : ndarray, shape (n,)
         ``omega_i`` (rad/s).
     w2, zw2 : ndarray, shape (n,)
@@ -159,11 +204,11 @@ class HydraulicJoints:
 
     def __init__(self, q: Sequence[float], v: Sequence[float], f: Sequence[float], *, second_order: bool,
                  valve_tau_s: float, omega_rad_s: float | Sequence[float], damping_ratio: float,
-                 a_relief: Sequence[float],
-                 displacement: Sequence[float] | None, pump_flow: float | None):
+                 a_relief: Sequence[float], displacement: Sequence[float] | None, pump_flow: float | None,
+                 s_max: Sequence[float] | None = None):
         self.n = len(q)
-        self.state = np.zeros((5, self.n))
-        self.q, self.v, self.x, self.s, self.y = self.state
+        self.state = np.zeros((6, self.n))
+        self.q, self.v, self.x, self.s, self.y, _ = self.state
         self.q[:], self.v[:], self.x[:], self.y[:] = q, v, v, v
         self.s[:] = -np.asarray(f, dtype=float)
         self.share = 1.0
@@ -172,7 +217,7 @@ class HydraulicJoints:
         self.omega = np.broadcast_to(np.asarray(omega_rad_s, dtype=float), (self.n,)).copy()
         self.w2 = self.omega**2
         self.zw2 = 2.0 * float(damping_ratio) * self.omega
-        self.a_relief = np.array(a_relief, dtype=float)
+        self.relief = np.array([a_relief, s_max if s_max is not None else [np.inf] * self.n], dtype=float)
         limited = displacement is not None and pump_flow is not None
         self.displacement = np.array(displacement if limited else [0.0] * self.n, dtype=float)
         self.pump_flow = float(pump_flow) if limited and pump_flow is not None else 0.0

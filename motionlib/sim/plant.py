@@ -18,9 +18,13 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
    pump's flow divided between the joints (:mod:`motionlib.sim.pump`, when
    ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
    response (each joint its own natural frequency from the crane file's oil data, see
-   ``SimParams.natural_freq_hz``; ``damping_ratio``) with the grapple's reaction as a load, and
-   the relief valves' acceleration bound ``accel_factor * qdd_max_i``; ``model="first_order"``
-   is the simpler option without spool state, compliance and reaction;
+   ``SimParams.natural_freq_hz``; ``damping_ratio``) with the grapple's reaction as a load and the
+   hanging mass in the joints' inertia, and the relief valves: each actuator's force or torque is at
+   most its capacity ``C_i = p_relief d_i`` (crane file ``hydraulics.relief_pressure`` times
+   ``displacement``), so a joint's acceleration is at most ``(C_i - tau_load_i) / I_i`` and a load above
+   the capacity sags against any command (a crane file without ``relief_pressure``: the net bound
+   ``accel_factor * qdd_max_i``); ``model="first_order"`` is the simpler option without spool state,
+   compliance and reaction (its acceleration bound is ``accel_factor * qdd_max_i``);
 5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity into the
    stop is zeroed (counted in ``hard_stop_hits``).
 
@@ -35,7 +39,8 @@ One more hydraulic joint, q5 (rad), of the same form: its command ``rotator_cmd`
 :meth:`SimulatedCrane.advance` passes the dead band and the direction-dependent saturation
 (steps 1 and 3; no valve gain deviation, noise or load term), then the same actuator model, with
 its displacement in the shared pump's flow (step 4: the arm slows when the rotator takes oil),
-its relief bound ``accel_factor * qdd_max_5`` and end stops at its limits (step 5). The point-mass
+its relief bound (``C_5 = p_relief d_5`` over ``dynamics.joint_inertia.rotator``, or
+``accel_factor * qdd_max_5``) and end stops at its limits (step 5). The point-mass
 grapple exerts no torque about its hanging axis, so the rotator carries no load term. State:
 :attr:`SimulatedCrane.rotator_q`, :attr:`SimulatedCrane.rotator_qd`.
 
@@ -51,10 +56,31 @@ damping ``c`` (1/s) acts on the velocity relative to the tip: small swings decay
 ``exp(-c t / 2)`` with period ``2 pi sqrt(L / g)``. The swing angle is the angle of the rod
 from the vertical.
 
-Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_grapple)`` (N, ``m`` =
-``load_mass_kg``); joint ``i`` feels ``f_i = (J^T F)_i / I_i`` (``I_i`` = ``joint_inertia[i]``,
-``J`` the tip Jacobian at the start of the control period), the load term of
-:class:`~motionlib.sim.hydraulics.HydraulicJoints`.
+Reaction on the arm: the rod pulls the tip with ``F = m (g_vec - a_cm)`` (N, ``m`` =
+``load_mass_kg`` and a grasped log, ``a_cm`` its centre of mass's acceleration); joint ``i`` feels
+``f_i = (J^T F)_i / I_i`` (``I_i`` = ``joint_inertia[i]``, ``J`` the tip Jacobian at the start of the
+control period), the load term of :class:`~motionlib.sim.hydraulics.HydraulicJoints`; the mass's
+motion with the tip along the rod is in the joints' inertia there (step 5 of that module), which
+keeps a heavy log on a light joint stable.
+
+Grasp and release
+-----------------
+:meth:`SimulatedCrane.grasp` closes the grapple on a log (mass ``m_l``, centre of mass ``d_l`` below
+the tip, inertia ``I_l`` about its centre); after the crane file's ``dynamics.grapple_close_time``
+(while the grapple closes, the log still lies where it is) the hanging body is the empty grapple (the
+point mass ``m0`` = ``load_mass_kg`` at the grapple point, ``l`` below the tip) and the log, rigidly:
+``M = m0 + m_l``, ``M D = m0 l + m_l d_l``, ``I_pivot = m0 l^2 + m_l d_l^2 + I_l``.
+:meth:`SimulatedCrane.release` opens it; after ``dynamics.grapple_open_time`` the log has left the rod.
+A rigid body on the passive two-axis joint (one swing inertia about both horizontal axes, no spin about
+the rod: an assumption) swings as a simple pendulum of length ``L_eff = I_pivot / (M D)``
+(``I_pivot theta'' = -M D (g + a_tip) x e``): period ``2 pi sqrt(I_pivot / (M g D))``. The grapple
+point stays on the rod at ``l`` and is integrated with the free acceleration
+``a_tip + sigma (g_vec - a_tip)``, ``sigma = l / L_eff``, so its angle follows the body's; the centre
+of mass is at ``kappa = D / l`` along the rod, so ``a_cm = (1 - kappa) a_tip + kappa a_grapple``
+enters the rod force, and contact pushes the grapple point against the body's inertia across the rod
+``I_pivot / l^2``. Without a log (``sigma = kappa = 1``) this is the point mass above. The
+:data:`PLANT_PARAMS` entries ``next_*`` and ``switch_t`` carry the change to the control period it is
+due in, so the compiled loop makes it too.
 
 Ground contact (``SimParams.contact``)
 --------------------------------------
@@ -91,7 +117,7 @@ from numba import njit
 from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
-from ..model.crane_model import MAX_NATURAL_FREQ_HZ
+from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ, MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
@@ -99,8 +125,6 @@ from .contact import ContactParams, ContactSurfaces, penalty_force
 from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
-#: Natural frequency (Hz) of every joint when neither ``SimParams.natural_freq_hz`` nor the crane file gives one.
-DEFAULT_NATURAL_FREQ_HZ = 2.5
 
 
 @dataclass(frozen=True)
@@ -137,9 +161,12 @@ class SimParams:
         Damping ratio ``zeta`` of that response. Assumption: hydraulic drives are lightly
         damped (Merritt 1967: 0.1-0.2 for the open loop); the joint controller adds damping; 0.35.
     accel_factor : float
-        Relief-valve acceleration bound of each joint as a multiple of the crane model's
-        ``qdd_max`` (the planning limit). Assumption: 4; 000 Fig. 8a shows tip accelerations
-        of ~10 m/s^2 on the lab crane, several times what its planned motions use.
+        Used where the crane file gives no ``hydraulics.relief_pressure`` (then the relief valves
+        bound each joint's net acceleration by ``accel_factor * qdd_max``, the planning limit) and by
+        the first-order option. Assumption: 4; 000 Fig. 8a shows tip accelerations of ~10 m/s^2 on
+        the lab crane, several times what its planned motions use. With ``relief_pressure`` (both
+        shipped cranes) the second-order plant bounds each actuator's force or torque by its
+        capacity ``p_relief d_i`` instead (module docstring).
     deadband_frac : float
         Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)``. Assumption.
     noise_frac : float
@@ -161,9 +188,10 @@ class SimParams:
         Share the pump's flow (:mod:`motionlib.sim.pump`) when the crane file gives
         ``hydraulics`` (003 section 4.3: the joints share one pump).
     load_mass_kg : float or None
-        Mass of the grapple (and log) on the rod (kg), whose reaction acts on the tip. None:
-        the crane file's ``dynamics.load_mass`` (its source is given there), or no reaction
-        when the file has no ``dynamics`` section.
+        Mass on the rod at the start (kg), a point mass at the grapple point, whose reaction acts on
+        the tip; a log grasped later adds its own (:meth:`SimulatedCrane.grasp`). None: the crane
+        file's ``dynamics.load_mass`` (its source is given there; the lab's 80 kg counts a log in the
+        grapple), or no reaction when the file has no ``dynamics`` section.
     joint_inertia : tuple of 4 float or None
         Inertia each joint moves (kg m^2; kg for the telescope), constant. None: the crane
         file's ``dynamics.joint_inertia``.
@@ -221,12 +249,16 @@ _NOISE_BLOCK = 1024  # standard normals drawn at a time for the flow noise
 #: Rows of the valve array (5, n) of :func:`plant_period`: per actuated joint.
 DEADBAND, GAIN_POS, GAIN_NEG, V_MIN, V_MAX = range(5)
 #: Entries of the parameter array of :func:`plant_period`.
+#: ``sigma``, ``kappa``: the hanging body's ``l / L_eff`` and ``d / l`` (module docstring, "Grasp and release");
+#: ``next_*``: the pendulum's mass, ``sigma`` and ``kappa`` from the time ``switch_t`` (s) on (inf: no change due).
 PLANT_PARAMS: tuple[str, ...] = (
     "dt_sub", "tau", "second_order", "pump_flow", "length", "gravity", "swing_damping", "mass",
-    "react", "contact_k", "contact_c", "friction", "load", "noise",
+    "react", "contact_k", "contact_c", "friction", "load", "noise", "sigma", "kappa", "next_mass", "next_sigma",
+    "next_kappa", "switch_t",
 )
 (P_DT_SUB, P_TAU, P_SECOND, P_PUMP, P_LENGTH, P_GRAVITY, P_DAMPING, P_MASS, P_REACT, P_CONTACT_K,
- P_CONTACT_C, P_FRICTION, P_LOAD, P_NOISE) = range(14)
+ P_CONTACT_C, P_FRICTION, P_LOAD, P_NOISE, P_SIGMA, P_KAPPA, P_NEXT_MASS, P_NEXT_SIGMA, P_NEXT_KAPPA,
+ P_SWITCH_T) = range(20)
 #: Entries of the clock array of :func:`plant_period`: time (s), end-stop hits, the peaks so far, the
 #: pump's last sharing factor, the last substep (s) and the next unused entry of the noise buffer.
 PLANT_CLOCK: tuple[str, ...] = ("t", "hits", "peak_pump_ratio", "peak_contact_n", "share", "h_last", "noise_index")
@@ -249,18 +281,18 @@ def joint_load(jac, fx: float, fy: float, fz: float, inv_inertia, out) -> None:
 
 @njit(cache=True)
 def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order: bool, w2, zw2,
-                     a_relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
-                     gravity: float, damping: float, mass: float, react: bool, inv_inertia, planes,
-                     contact_k: float, contact_c: float, friction: float):
+                     relief, displacement, pump_flow: float, q_min, q_max, at_stop, g, pend, length: float,
+                     gravity: float, damping: float, mass: float, sigma: float, kappa: float, react: bool,
+                     inv_inertia, planes, contact_k: float, contact_c: float, friction: float):
     """Integrate the plant over one control period of ``n_sub`` substeps ``h`` (s), in place (module docstring).
 
     Parameters
     ----------
     u : ndarray, shape (n,)
         Valve commands after dead band, gains and saturation (steps 1-3), held over the period.
-    joints : ndarray, shape (5, n)
+    joints : ndarray, shape (6, n)
         The actuators' state (:class:`~motionlib.sim.hydraulics.HydraulicJoints`).
-    alpha, second_order, w2, zw2, a_relief, displacement, pump_flow
+    alpha, second_order, w2, zw2, relief, displacement, pump_flow
         The actuators' parameters (:func:`~motionlib.sim.hydraulics.actuators_substep`; ``w2``, ``zw2``:
         arrays (n,), each joint's ``omega_i^2`` and ``2 zeta omega_i``).
     q_min, q_max : ndarray, shape (n,)
@@ -273,7 +305,10 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         Rows ``GRAPPLE, GRAPPLE_PREV, TIP, TIP_PREV`` (m) and the forces ``ROD_FORCE`` (of the rod
         on the tip) and ``CONTACT_FORCE`` (of the contact surfaces on the grapple) (N) of the last substep.
     length, gravity, damping, mass : float
-        Rod length (m), gravity (m/s^2), swing damping ``c`` (1/s), grapple mass (kg).
+        Rod length ``l`` (m), gravity (m/s^2), swing damping ``c`` (1/s), the hanging body's mass ``m`` (kg).
+    sigma, kappa : float
+        The hanging body's ``l / L_eff`` and ``d / l`` (module docstring, "Grasp and release"; 1 and 1: a
+        point mass at the grapple point).
     react : bool
         The rod's force acts on the joints (second-order model with a load mass).
     inv_inertia : ndarray, shape (n,)
@@ -299,6 +334,13 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     q, v, s = joints[Q], joints[V], joints[S]
     _, jac = tip_point_jacobian(g, q[0], q[1], q[2], q[3])
     f = np.zeros(n)
+    b, bm = np.zeros(n), np.zeros(n)
+    if react:  # the hanging mass moves with the tip along the rod (hydraulics step 5)
+        ex, ey, ez = pend[GRAPPLE, 0] - pend[TIP, 0], pend[GRAPPLE, 1] - pend[TIP, 1], pend[GRAPPLE, 2] - pend[TIP, 2]
+        e = math.sqrt(ex * ex + ey * ey + ez * ez)
+        for i in range(4):
+            b[i] = (jac[i] * ex + jac[4 + i] * ey + jac[8 + i] * ez) / e
+            bm[i] = mass * b[i] * inv_inertia[i]
     hits = 0
     pump_ratio = 0.0
     share = 1.0
@@ -306,6 +348,8 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     grav_h2 = gravity * h * h
     damp = damping * h
     mass_h2 = mass / (h * h)
+    point_h2 = mass_h2 * kappa / sigma  # the body's inertia across the rod at the grapple point, I_pivot / l^2
+    free = 1.0 - sigma
     gx, gy, gz = pend[GRAPPLE, 0], pend[GRAPPLE, 1], pend[GRAPPLE, 2]
     gpx, gpy, gpz = pend[GRAPPLE_PREV, 0], pend[GRAPPLE_PREV, 1], pend[GRAPPLE_PREV, 2]
     tx, ty, tz = pend[TIP, 0], pend[TIP, 1], pend[TIP, 2]
@@ -315,7 +359,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
     for _ in range(n_sub):
         if react:
             joint_load(jac, fx, fy, fz, inv_inertia, f)
-        share = actuators_substep(joints, u, f, h, alpha, second_order, w2, zw2, a_relief, displacement, pump_flow)
+        share = actuators_substep(joints, u, f, b, bm, h, alpha, second_order, w2, zw2, relief, displacement, pump_flow)
         if pump_flow > 0.0:
             r = 0.0
             for i in range(n):
@@ -334,11 +378,13 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
             else:
                 at_stop[i] = False
         nx, ny, nz = tip_point(g, q[0], q[1], q[2], q[3])
-        # grapple: position Verlet with damping on the velocity relative to the tip, the ground's push ...
+        atx, aty, atz = nx - 2.0 * tx + tpx, ny - 2.0 * ty + tpy, nz - 2.0 * tz + tpz  # tip acceleration h^2
+        # grapple: position Verlet with damping on the velocity relative to the tip, its free acceleration
+        # a_tip + sigma (g_vec - a_tip) (a physical pendulum's, module docstring), the ground's push ...
         sx, sy, sz = gx - gpx, gy - gpy, gz - gpz
-        cx = gx + sx - damp * (sx - (tx - tpx))
-        cy = gy + sy - damp * (sy - (ty - tpy))
-        cz = gz + sz - damp * (sz - (tz - tpz)) - grav_h2
+        cx = gx + sx - damp * (sx - (tx - tpx)) + free * atx
+        cy = gy + sy - damp * (sy - (ty - tpy)) + free * aty
+        cz = gz + sz - damp * (sz - (tz - tpz)) - sigma * grav_h2 + free * atz
         fcx = fcy = fcz = 0.0
         for k in range(planes.shape[0]):  # ... and the contact surfaces' push and friction
             nx_, ny_, nz_ = planes[k, 0], planes[k, 1], planes[k, 2]
@@ -346,9 +392,9 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
             fn = penalty_force(depth, planes[k, 3] - (nx_ * gpx + ny_ * gpy + nz_ * gpz), h, contact_k, contact_c)
             if fn <= 0.0:
                 continue
-            cx += nx_ * fn / mass_h2
-            cy += ny_ * fn / mass_h2
-            cz += nz_ * fn / mass_h2
+            cx += nx_ * fn / point_h2
+            cy += ny_ * fn / point_h2
+            cz += nz_ * fn / point_h2
             fcx, fcy, fcz = fcx + nx_ * fn, fcy + ny_ * fn, fcz + nz_ * fn
             # friction: stops the sliding along the surface within the step if mu f_n can (stable at any force)
             dx, dy, dz = cx - gx, cy - gy, cz - gz
@@ -356,9 +402,9 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
             dx, dy, dz = dx - dn * nx_, dy - dn * ny_, dz - dn * nz_
             slide = math.sqrt(dx * dx + dy * dy + dz * dz)
             if slide > 0.0:
-                stop = min(1.0, friction * fn / mass_h2 / slide)
+                stop = min(1.0, friction * fn / point_h2 / slide)
                 cx, cy, cz = cx - stop * dx, cy - stop * dy, cz - stop * dz
-                fcx, fcy, fcz = fcx - stop * dx * mass_h2, fcy - stop * dy * mass_h2, fcz - stop * dz * mass_h2
+                fcx, fcy, fcz = fcx - stop * dx * point_h2, fcy - stop * dy * point_h2, fcz - stop * dz * point_h2
         contact_peak = max(contact_peak, math.sqrt(fcx * fcx + fcy * fcy + fcz * fcz))
         # SHAKE: move along the previous rod direction until the rod has its length again
         ox, oy, oz = gx - tx, gy - ty, gz - tz
@@ -368,27 +414,29 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         root = math.sqrt(dr * dr - length2 * excess) if dr * dr > length2 * excess else 0.0
         lam = -excess / (dr + root if dr >= 0.0 else dr - root)
         ngx, ngy, ngz = cx + lam * ox, cy + lam * oy, cz + lam * oz
-        if react:  # the rod's pull on the tip: m (g_vec - a_grapple) + the ground's push on the grapple
-            fx = -mass_h2 * (ngx - 2.0 * gx + gpx) + fcx
-            fy = -mass_h2 * (ngy - 2.0 * gy + gpy) + fcy
-            fz = -mass * gravity - mass_h2 * (ngz - 2.0 * gz + gpz) + fcz
+        if react:  # the rod's pull on the tip: m (g_vec - a_cm) + the ground's push on the grapple, where
+            # a_cm = (1 - kappa) a_tip + kappa a_grapple (the centre of mass at d = kappa l along the rod)
+            fx = -mass_h2 * ((1.0 - kappa) * atx + kappa * (ngx - 2.0 * gx + gpx)) + fcx
+            fy = -mass_h2 * ((1.0 - kappa) * aty + kappa * (ngy - 2.0 * gy + gpy)) + fcy
+            fz = -mass * gravity - mass_h2 * ((1.0 - kappa) * atz + kappa * (ngz - 2.0 * gz + gpz)) + fcz
         gpx, gpy, gpz = gx, gy, gz
         gx, gy, gz = ngx, ngy, ngz
         tpx, tpy, tpz = tx, ty, tz
         tx, ty, tz = nx, ny, nz
-    for row, (a, b, c) in ((GRAPPLE, (gx, gy, gz)), (GRAPPLE_PREV, (gpx, gpy, gpz)), (TIP, (tx, ty, tz)),
-                           (TIP_PREV, (tpx, tpy, tpz)), (ROD_FORCE, (fx, fy, fz)), (CONTACT_FORCE, (fcx, fcy, fcz))):
-        pend[row, 0], pend[row, 1], pend[row, 2] = a, b, c
+    for row, (x0, x1, x2) in ((GRAPPLE, (gx, gy, gz)), (GRAPPLE_PREV, (gpx, gpy, gpz)), (TIP, (tx, ty, tz)),
+                              (TIP_PREV, (tpx, tpy, tpz)), (ROD_FORCE, (fx, fy, fz)), (CONTACT_FORCE, (fcx, fcy, fcz))):
+        pend[row, 0], pend[row, 1], pend[row, 2] = x0, x1, x2
     return hits, pump_ratio, share, contact_peak
 
 
 @njit(cache=True)
-def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, normals, u, joints, a_relief, w2, zw2,
+def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, normals, u, joints, relief, w2, zw2,
                  displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes) -> None:
     """Hold the command ``cmd`` (4,) for ``duration`` (s): steps 1-3 (module docstring), then :func:`integrate_period`.
 
     A non-finite command component counts as 0 (the valve closes). Updates the arrays in place;
-    ``clock[t]`` advances by ``duration``.
+    ``clock[t]`` advances by ``duration``. A grasp or release due (``prm[switch_t] <= clock[t]``) changes the
+    pendulum first.
 
     Parameters
     ----------
@@ -400,7 +448,7 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
         Held for this long (s), in ``round(duration / dt_sub)`` equal substeps.
     valve : ndarray, shape (5, n)
         Rows ``DEADBAND`` (rad/s, m/s), ``GAIN_POS``, ``GAIN_NEG``, ``V_MIN``, ``V_MAX`` (rad/s, m/s).
-    prm : ndarray, shape (14,)
+    prm : ndarray, shape (20,)
         :data:`PLANT_PARAMS`.
     clock : ndarray, shape (7,)
         :data:`PLANT_CLOCK`, updated.
@@ -408,9 +456,13 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
         Standard normals for the flow noise, used from ``clock[noise_index]`` on (4 per period at most).
     u : ndarray, shape (n,)
         Scratch for the valve commands.
-    joints, a_relief, w2, zw2, displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes
+    joints, relief, w2, zw2, displacement, q_min, q_max, at_stop, g, pend, inv_inertia, planes
         As :func:`integrate_period`.
     """
+    if clock[C_T] >= prm[P_SWITCH_T] - 1e-9:  # the grapple has closed on a log or let it go
+        prm[P_MASS], prm[P_SIGMA], prm[P_KAPPA] = prm[P_NEXT_MASS], prm[P_NEXT_SIGMA], prm[P_NEXT_KAPPA]
+        prm[P_REACT] = 1.0 if prm[P_SECOND] != 0.0 and prm[P_MASS] > 0.0 else 0.0
+        prm[P_SWITCH_T] = math.inf
     n = u.shape[0]
     n_sub = max(1, int(round(duration / prm[P_DT_SUB])))
     h = duration / n_sub
@@ -435,9 +487,10 @@ def plant_period(cmd, rotator_cmd: float, duration: float, valve, prm, clock, no
             c = 0.0
         u[4] = min(max(c, valve[V_MIN, 4]), valve[V_MAX, 4])
     hits, pump_ratio, share, contact_peak = integrate_period(
-        u, n_sub, h, joints, 1.0 - math.exp(-h / prm[P_TAU]), prm[P_SECOND] != 0.0, w2, zw2, a_relief,
+        u, n_sub, h, joints, 1.0 - math.exp(-h / prm[P_TAU]), prm[P_SECOND] != 0.0, w2, zw2, relief,
         displacement, prm[P_PUMP], q_min, q_max, at_stop, g, pend, prm[P_LENGTH], prm[P_GRAVITY], prm[P_DAMPING],
-        prm[P_MASS], prm[P_REACT] != 0.0, inv_inertia, planes, prm[P_CONTACT_K], prm[P_CONTACT_C], prm[P_FRICTION],
+        prm[P_MASS], prm[P_SIGMA], prm[P_KAPPA], prm[P_REACT] != 0.0, inv_inertia, planes, prm[P_CONTACT_K],
+        prm[P_CONTACT_C], prm[P_FRICTION],
     )
     clock[C_T] += duration
     clock[C_HITS] += hits
@@ -489,7 +542,7 @@ class PlantArrays(NamedTuple):
     normals: np.ndarray
     u: np.ndarray
     joints: np.ndarray
-    a_relief: np.ndarray
+    relief: np.ndarray
     w2: np.ndarray
     zw2: np.ndarray
     displacement: np.ndarray
@@ -545,6 +598,11 @@ class SimulatedCrane:
         ``SimParams.natural_freq_hz``.
     joints : HydraulicJoints
         The actuators' state (valve states ``x``, delivered speeds ``y``, sharing factor ``share``).
+    capacity : tuple of n float or None
+        Each actuated joint's relief capacity ``p_relief d_i`` (N m; N for the telescope) when the plant
+        bounds the pressure (second order, the crane file's ``hydraulics.relief_pressure``), else None.
+    held_log : tuple of 3 float or None
+        The log the grapple holds or closes on (:meth:`grasp`): mass (kg), depth (m), inertia (kg m^2).
     arrays : PlantArrays
         The arrays :func:`plant_period` integrates (the state lives there; the attributes above are
         copies, refreshed by :meth:`advance` and :meth:`sync`).
@@ -595,6 +653,7 @@ class SimulatedCrane:
         if mass and inertia is None:
             raise InputError(f"crane {crane.name!r}: a load mass needs joint_inertia (SimParams or the crane file)")
         self._mass = float(mass or 0.0)
+        self._inertia = tuple(float(i) for i in inertia) if inertia is not None else None
         if prm.contact is not None and self._mass <= 0.0:
             raise InputError(f"crane {crane.name!r}: contact needs the grapple's mass (SimParams.load_mass_kg "
                              "or the crane file's dynamics.load_mass)")
@@ -632,6 +691,18 @@ class SimulatedCrane:
             hz = prm.natural_freq_hz if prm.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
             per_joint = (2.0 * math.pi * hz,) * self._n
         self.omega_rad_s: tuple[float, ...] = tuple(float(w) for w in per_joint)
+        # the relief valves: the actuator's force per unit inertia C_i / I_i (hydraulics step 4), or without
+        # the crane file's relief_pressure the older net-acceleration bound
+        capacity = model.joint_capacities(with_rotator=rot is not None)
+        moved = [float(i) for i in inertia] if inertia is not None else None
+        if moved is not None and rot is not None:
+            moved = moved + [float(model.rotator_inertia)] if model.rotator_inertia is not None else None
+        a_net = prm.accel_factor * full["qdd_max"]
+        s_max = None
+        if second and capacity is not None and moved is not None:
+            s_max = [c / i for c, i in zip(capacity, moved, strict=True)]
+            a_net = np.full(self._n, np.inf)
+        self.capacity: tuple[float, ...] | None = capacity if s_max is not None else None
         top = max(self.omega_rad_s) / (2.0 * math.pi)
         if top > MAX_NATURAL_FREQ_HZ:  # e.g. SimParams.joint_inertia too small for the file's oil springs
             raise InputError(f"crane {crane.name!r}: a joint's natural frequency {top:.4g} Hz is above "
@@ -639,9 +710,9 @@ class SimulatedCrane:
         self.joints = HydraulicJoints(
             self.q + extra, self.qd + (0.0,) * len(extra), f.tolist(), second_order=second,
             valve_tau_s=prm.tau_s, omega_rad_s=self.omega_rad_s, damping_ratio=prm.damping_ratio,
-            a_relief=(prm.accel_factor * full["qdd_max"]).tolist(),
+            a_relief=a_net.tolist(),
             displacement=list(disp) if shared and disp is not None else None,
-            pump_flow=float(pump) if shared and pump is not None else None,
+            pump_flow=float(pump) if shared and pump is not None else None, s_max=s_max,
         )
         j, contact = self.joints, prm.contact
         values = {
@@ -651,16 +722,19 @@ class SimulatedCrane:
             "contact_k": contact.stiffness_n_m if contact else 0.0,
             "contact_c": contact.damping_n_s_m if contact else 0.0,
             "friction": contact.friction if contact else 0.0, "load": 0.0, "noise": prm.noise_frac,
+            "sigma": 1.0, "kappa": 1.0, "next_mass": self._mass, "next_sigma": 1.0, "next_kappa": 1.0,
+            "switch_t": math.inf,
         }
         clock = np.zeros(len(PLANT_CLOCK))
         clock[[C_T, C_SHARE, C_H_LAST]] = t0, 1.0, h
         self.arrays = PlantArrays(
             valve, np.array([float(values[k]) for k in PLANT_PARAMS]), clock, np.zeros(0), np.zeros(self._n),
-            j.state, j.a_relief, j.w2, j.zw2, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool),
+            j.state, j.relief, j.w2, j.zw2, j.displacement, self._q_min, self._q_max, np.zeros(self._n, dtype=bool),
             self._g, pend,
             inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
         )
         self.set_payload(self.payload_frac)
+        self.held_log: tuple[float, float, float] | None = None
 
     # --------------------------------------------------------------- read-out
     t = property(lambda self: float(self.arrays.clock[C_T]), doc="Simulated time (s).")
@@ -721,6 +795,66 @@ class SimulatedCrane:
         """The grapple now carries ``fraction`` of the rated load (0: empty)."""
         self.payload_frac = float(check_scalar(fraction, "fraction", ge=0.0, le=1.5))
         self.arrays.prm[P_LOAD] = self.params.load_speed_loss * self.payload_frac
+
+    def grasp(self, mass_kg: float, depth_m: float, inertia_kg_m2: float = 0.0) -> None:
+        """Close the grapple on a log; it hangs on the rod from the grapple's closing time on (module docstring).
+
+        Parameters
+        ----------
+        mass_kg : float
+            The log's mass ``m_l`` (kg).
+        depth_m : float
+            Its centre of mass below the tip along the rod ``d_l`` (m), in ``(0, 2 l]``; a log held on its
+            axis in the closed grapple: ``grapple_length - log_diameter / 2``.
+        inertia_kg_m2 : float
+            Its inertia about its centre for the swing ``I_l`` (kg m^2); 0: a point mass. A solid cylinder
+            of length ``L_l`` and diameter ``D_l`` swinging along its axis: ``m_l (3 D_l^2 / 4 + L_l^2) / 12``;
+            across it: ``m_l D_l^2 / 8``.
+
+        Raises
+        ------
+        InputError
+            A log is held already; bad numbers; the crane file gives no ``dynamics.grapple_close_time``
+            (the grapple's closing time) or the plant no joint inertia.
+        """
+        if self.held_log is not None:
+            raise InputError("grasp: the grapple holds a log already (release it first)")
+        m = float(check_scalar(mass_kg, "mass_kg", gt=0.0))
+        d = float(check_scalar(depth_m, "depth_m", gt=0.0, le=2.0 * self.length_m))
+        i = float(check_scalar(inertia_kg_m2, "inertia_kg_m2", ge=0.0))
+        self.held_log = (m, d, i)
+        self._schedule(self.crane.model.grapple_close_time, "grapple_close_time")
+
+    def release(self) -> None:
+        """Open the grapple; the log leaves the rod after the grapple's opening time (module docstring)."""
+        if self.held_log is None:
+            raise InputError("release: the grapple holds no log")
+        self.held_log = None
+        self._schedule(self.crane.model.grapple_open_time, "grapple_open_time")
+
+    def pendulum(self) -> tuple[float, float, float]:
+        """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the tip
+        ``I_pivot`` (kg m^2) (module docstring, "Grasp and release")."""
+        m0, l0 = self._mass, self.length_m
+        mass, moment, inertia = m0, m0 * l0, m0 * l0 * l0
+        if self.held_log is not None:
+            m, d, i = self.held_log
+            mass, moment, inertia = mass + m, moment + m * d, inertia + m * d * d + i
+        return mass, moment / mass if mass > 0.0 else l0, inertia
+
+    def _schedule(self, delay_s: float | None, key: str) -> None:
+        """The pendulum of :meth:`pendulum` from ``t + delay_s`` on (in :func:`plant_period`)."""
+        if delay_s is None:
+            raise InputError(f"crane {self.crane.name!r}: dynamics.{key} is missing (the grapple's timing)")
+        if self.params.model == "second_order" and self._inertia is None:
+            raise InputError(f"crane {self.crane.name!r}: a grasped log needs joint_inertia (SimParams or the file)")
+        mass, depth, inertia = self.pendulum()
+        prm, l0 = self.arrays.prm, self.length_m
+        prm[P_NEXT_MASS] = mass
+        # l / L_eff with L_eff = I_pivot / (M D); d / l
+        prm[P_NEXT_SIGMA] = l0 * mass * depth / inertia if inertia > 0.0 else 1.0
+        prm[P_NEXT_KAPPA] = depth / l0
+        prm[P_SWITCH_T] = self.t + float(delay_s)
 
     @property
     def tip_velocity(self) -> tuple[float, float, float]:

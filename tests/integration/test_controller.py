@@ -444,6 +444,32 @@ def test_position_gain_cap_is_the_gain_margin_on_the_loaded_joint_model(planned)
     assert uncapped.position_gain_max(traj.q) == math.inf
 
 
+def test_position_gain_cap_per_joint_uses_each_joints_frequency(planned):
+    """``joint_natural_freq_hz=None``: ``k_max = min_i 2 zeta w_i / (GM (1 + rho_i))`` with each joint's
+    ``w_i = sqrt(4 beta d_i^2 / (V_i I_i))`` from the crane file's numbers; brute force: the loaded joints' loop
+    gains ``|k / (j w) G_i(j w)|`` at their -180 degree crossings are at most ``1 / GM``, the tightest equal
+    to it (the lab's slew, 1.13 Hz)."""
+    crane, _, traj = planned
+    prm = ControllerParams(joint_natural_freq_hz=None)
+    k = SharedController(crane, "M6", prm).position_gain_max(traj.q)
+    m, inertia = crane.model.load_mass, np.array(crane.model.joint_inertia)
+    jac = np.array([crane.jacobian(q) for q in traj.q])  # (n, 3, 4)
+    rho = (m * (jac**2).sum(axis=1) / inertia).max(axis=0)
+    disp, vol = np.array(crane.model.displacement), np.array(crane.model.oil_volume)
+    omega = np.sqrt(4 * crane.model.bulk_modulus * disp**2 / (vol * inertia))
+    margins = []
+    for w0, r in zip(omega, rho, strict=True):
+        zeta = prm.joint_damping_ratio
+        w = np.linspace(0.1, 5 * w0, 200_001)
+        s = 1j * w
+        loop = k / s * (w0**2 / (1 + r)) / (s**2 + 2 * zeta * w0 / (1 + r) * s + w0**2 / (1 + r))
+        i = np.argmin(np.abs(np.angle(loop) + np.pi) + 10 * (np.angle(loop) > 0))
+        margins.append(abs(loop[i]))
+    assert max(margins) == pytest.approx(1 / prm.position_gain_margin, rel=2e-2)
+    assert int(np.argmax(margins)) == 0
+    assert k < SharedController(crane, "M6", ControllerParams()).position_gain_max(traj.q)  # 2.5 Hz: higher
+
+
 def test_mode_parsing():
     assert Mode.parse("m3") is Mode.M3 and Mode.M3.joint_operation and Mode.M3.authority == "shared"
     assert Mode.M5.authority == "traded" and not Mode.M5.joint_operation

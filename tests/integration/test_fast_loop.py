@@ -10,6 +10,8 @@ through every way a segment returns to Python
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -21,7 +23,7 @@ from motionlib.sim import fast_loop
 from motionlib.sim.execute import prepare_run
 from motionlib.sim.loop import LoopOptions, run_closed_loop
 from motionlib.sim.operators import PassiveOperator, ScriptedStick, SimulatedOperator
-from motionlib.sim.plant import SimParams
+from motionlib.sim.plant import P_MASS, P_SWITCH_T, SimParams
 
 SCENE = "obstacles/log-loading.yaml"
 
@@ -98,6 +100,25 @@ def test_compiled_loop_with_per_joint_stiffness_gives_the_python_loops_run(setti
     _assert_same_run(python, compiled)
     assert len(set(compiled[2].omega_rad_s)) == 4  # four different frequencies
     assert compiled[0].steps > 1000
+
+
+def test_a_grasp_during_the_run_is_the_same_compiled(setting):
+    """The grapple closes on a log while the motion runs (the crane file's 1.0 s closing time): the pendulum
+    changes in the compiled segment at the same step as in Python."""
+    crane, scene, trajs = setting
+    traj = trajs["out"]
+    runs = []
+    for compiled in (False, True):
+        ctl, plant = prepare_run(crane, scene, "M6", traj.q[0], options=ExecuteOptions(seed=3))
+        plant.grasp(38.0, 0.45, 7.2)
+        ctl.start_motion(traj)
+        op = PassiveOperator()
+        res = run_closed_loop(ctl, plant, op, LoopOptions(time_limit_s=40.0, compiled=compiled))
+        runs.append((res, ctl, plant, op))
+    _assert_same_run(*runs)
+    plant = runs[1][2]
+    assert plant.arrays.prm[P_MASS] == crane.model.load_mass + 38.0 and plant.arrays.prm[P_SWITCH_T] == math.inf
+    assert runs[1][0].steps > 400  # the switch (at 1.0 s, step 200) fell inside the compiled run
 
 
 @settings(max_examples=25, deadline=None)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -138,8 +139,8 @@ def test_actuators_substep_rings_each_joint_at_its_own_frequency():
     u, f = np.full(n, 0.01), np.zeros(n)
     vs = []
     for _ in range(int(2.0 / h)):
-        actuators_substep(joints.state, u, f, h, 1.0, True, joints.w2, joints.zw2, joints.a_relief,
-                          joints.displacement, joints.pump_flow)
+        actuators_substep(joints.state, u, f, np.zeros(n), np.zeros(n), h, 1.0, True, joints.w2, joints.zw2,
+                          joints.relief, joints.displacement, joints.pump_flow)
         vs.append(joints.v.copy())
     t, e = h * np.arange(1, len(vs) + 1), np.array(vs) - u
     wd = omega * math.sqrt(1 - zeta * zeta)
@@ -150,9 +151,10 @@ def test_actuators_substep_rings_each_joint_at_its_own_frequency():
         np.testing.assert_allclose(np.diff(tc), math.pi / wd[i], rtol=0.01)
 
 
-def test_relief_bound_limits_acceleration(lab):
+def test_relief_bound_limits_acceleration_without_relief_pressure(lab):
+    """A crane file without hydraulics.relief_pressure: the net acceleration bound accel_factor qdd_max."""
     prm = SimParams(load_mass_kg=0.0, pump_sharing=False, deadband_frac=0.0)
-    sim = SimulatedCrane(lab, Q_MID, prm)
+    sim = SimulatedCrane(Crane(replace(lab.model, relief_pressure=None)), Q_MID, prm)
     _, v = _velocities(sim, [0.5, -0.4, 0.35, -0.45], 0.5)
     acc = np.abs(np.diff(v, axis=0)) / H
     assert np.all(acc <= prm.accel_factor * lab.qdd_max * (1 + 1e-9))
