@@ -63,6 +63,7 @@ FORWARDER_SCENARIO = ScenarioOptions(
     grab_along_m=0.8,
     grab_height_tol_m=0.3,
     grapple_still_rad=0.03,
+    log_density_kg_m3=900.0,
     automation_ends="per-log",
     target_region="bunk-drop",
     target_point="bunk-center",
@@ -78,6 +79,10 @@ FORWARDER_SCENARIO = ScenarioOptions(
 * grab tolerances: grapple point within 0.25 m across the log (an open forwarder grapple spans
   ~1.3 m), 0.8 m along it from its centre (a 4 m log held near its balance point), tip within
   0.3 m of the grab height;
+* a grabbed log hangs on the grapple's rod from the grapple's closing time on (and leaves it when the
+  grapple opens): green spruce and pine, ~900 kg/m^3 (a 4 m x 0.3 m log ~250 kg); its swing inertia
+  about its own axis (``m D^2 / 8``: the log rolling in the grapple; the plant takes one inertia for both
+  horizontal axes, so the log's pitch about the grapple is left out);
 * the grapple closes and opens only once its swing amplitude is below 0.03 rad (3 cm at the end of
   its 1.1 m rod; ``LoopOptions.settle_swing_rad``, the settle tolerance): a swinging grapple cannot be
   lowered onto a log, so the wait for the swing counts in S7 and S9;

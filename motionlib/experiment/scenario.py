@@ -61,6 +61,8 @@ class Log:
         Grab point of the tip (m).
     release_p : tuple of 3 float
         Release point of the tip in the target area (m).
+    length_m, diameter_m : float
+        The log's size (m): its scene cylinder's length and diameter (NaN for another shape).
     """
 
     name: str
@@ -70,6 +72,12 @@ class Log:
     area_center: Vec3
     grab_p: Vec3
     release_p: Vec3
+    length_m: float = math.nan
+    diameter_m: float = math.nan
+
+    def mass_kg(self, density_kg_m3: float) -> float:
+        """Mass (kg) of the log as a solid cylinder of wood of ``density_kg_m3``."""
+        return density_kg_m3 * math.pi * self.diameter_m**2 / 4.0 * self.length_m
 
 
 @dataclass(frozen=True)
@@ -90,6 +98,11 @@ class ScenarioOptions:
         Grab tolerances (m): grapple point across / along the log axis, tip height.
     max_attempts : int
         Tries per grab or release before the task moves on (the cycle is flagged).
+    log_density_kg_m3 : float or None
+        None: a grabbed log does not change the simulated crane (000's task: the crane file's load mass
+        already counts one). A number: the grab puts the log (a solid cylinder of this density, its scene
+        size) on the grapple's rod (:meth:`SimulatedCrane.grasp <motionlib.sim.plant.SimulatedCrane.grasp>`:
+        the pendulum, the joints' loads, the relief bound) and the release takes it off.
     grapple_still_rad : float or None
         None: the grapple closes or opens wherever its swing is (000's task: the operator judges it).
         A number (rad): it closes or opens only once its swing amplitude
@@ -117,6 +130,7 @@ class ScenarioOptions:
     grab_along_m: float = param(0.4, gt=0.0)
     grab_height_tol_m: float = param(0.15, gt=0.0)
     max_attempts: int = 4
+    log_density_kg_m3: float | None = param(None, gt=0.0, le=2000.0, optional=True)
     grapple_still_rad: float | None = param(None, gt=0.0, optional=True)
     automation_ends: str = "fixed"
     fix_point: str = "pickup-between"
@@ -198,6 +212,8 @@ class Scenario:
                 area_center=(float(area.center[0]), float(area.center[1]), float(area.center[2])),
                 grab_p=(x, y, opts.grab_height_m),
                 release_p=(cx + offset, cy, opts.release_height_m),
+                length_m=float(ob.length) if ob.shape == "cylinder" and ob.length is not None else math.nan,
+                diameter_m=2.0 * float(ob.radius) if ob.shape == "cylinder" and ob.radius is not None else math.nan,
             ))
         fixed = opts.automation_ends == "fixed"
         target_p = scene.point(opts.target_point)

@@ -244,12 +244,18 @@ class LoadingTask:
     def _begin_dwell(self, t: float) -> None:
         sc, log, kind = self.scenario, self._log, self._kind
         self.attempts[kind] += 1
+        density = sc.options.log_density_kg_m3
         if kind == "grab":
             self._ok = sc.grab_ok(log, self.sim.grapple, self.sim.tip)
             dwell = sc.options.grab_dwell_s
+            if self._ok and density is not None and self.sim.held_log is None:  # the closing grapple takes the log
+                depth = self.sim.length_m - 0.5 * log.diameter_m  # held on its axis in the closed grapple
+                self.sim.grasp(log.mass_kg(density), depth, log.mass_kg(density) * log.diameter_m**2 / 8.0)
         else:
             self._ok = sc.release_ok(self.sim.tip)
             dwell = sc.options.release_dwell_s
+            if self._ok and self.sim.held_log is not None:
+                self.sim.release()
         self._grapple_at = (float(self.sim.grapple[0]), float(self.sim.grapple[1]), float(self.sim.grapple[2]))
         self._event(t, f"{kind}_start", f"attempt {self.attempts[kind]} at {_fmt(self.sim.tip)}")
         self._phase = "dwell"
