@@ -29,6 +29,12 @@ ROTATOR_NAME = "rotator"
 CRANES_DIR = Path(__file__).parent / "cranes"
 #: The :class:`CraneModel` fields of the joints' oil springs (optional; left out of ``to_dict`` when None).
 STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
+#: Standard gravity (m/s^2).
+GRAVITY_M_S2 = 9.81
+#: Swing damping ``c`` (1/s) of the grapple pendulum when the crane file gives no ``dynamics.swing_damping``:
+#: small swings decay as ``exp(-c t / 2)``. Assumption (the simulated crane's value since it has a pendulum:
+#: the passive two-axis joint's friction and air drag, a swing halves in ~3.5 s).
+DEFAULT_SWING_DAMPING_PER_S = 0.4
 
 _TURN = 2.0 * math.pi
 #: Highest hydraulic natural frequency (Hz) the plant's 1 kHz semi-implicit Euler step of the oil spring
@@ -63,6 +69,8 @@ PLAUSIBLE: dict[str, Plausible] = {
     "joint_inertia": Plausible(1.0, 1e6, 1e-3, 1e9, "kg m^2 or kg"),
     "rotator_inertia": Plausible(0.01, 1e4, 1e-5, 1e7, "kg m^2"),  # grapple and log about the hanging axis
     "load_mass": Plausible(1.0, 1e4, 1e-3, 1e6, "kg"),
+    # swing damping c of the grapple pendulum: a swing decays as exp(-c t / 2), half-lives from ~0.3 s to ~140 s
+    "swing_damping": Plausible(0.01, 5.0, 0.0, 100.0, "1/s"),
     "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
     "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
 }
@@ -135,6 +143,11 @@ class CraneModel:
     the grapple and its log about the hanging axis) on a crane with a rotator. With
     ``displacement`` and ``joint_inertia`` they give each joint's natural frequency
     (:meth:`natural_frequencies_rad_s`).
+
+    ``swing_damping`` (1/s, optional ``dynamics.swing_damping``; ``None`` when the file gives
+    none) is the damping ``c`` of the grapple's swing on its rod of length ``grapple_length``: small
+    swings decay as ``exp(-c t / 2)``. The planner's pendulum (:mod:`motionlib.planning.swing`) and
+    the simulated crane read it through :attr:`grapple_swing_damping_per_s`.
     """
 
     name: str
@@ -164,6 +177,12 @@ class CraneModel:
     oil_volume: tuple[float, ...] | None = None
     rotator_oil_volume: float | None = None
     rotator_inertia: float | None = None
+    swing_damping: float | None = None
+
+    @property
+    def grapple_swing_damping_per_s(self) -> float:
+        """Swing damping ``c`` (1/s): ``dynamics.swing_damping``, or :data:`DEFAULT_SWING_DAMPING_PER_S`."""
+        return DEFAULT_SWING_DAMPING_PER_S if self.swing_damping is None else self.swing_damping
 
     @property
     def has_stiffness(self) -> bool:
@@ -207,7 +226,8 @@ class CraneModel:
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
-        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", *STIFFNESS_FIELDS):
+        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", "swing_damping",
+                    *STIFFNESS_FIELDS):
             if out[key] is None:
                 del out[key]
         return out
@@ -270,6 +290,8 @@ class CraneModel:
                                "load_mass": self.load_mass}
             if self.rotator_inertia is not None:
                 out["dynamics"]["joint_inertia"][ROTATOR_NAME] = self.rotator_inertia
+            if self.swing_damping is not None:
+                out["dynamics"]["swing_damping"] = self.swing_damping
         return out
 
     @property
@@ -368,7 +390,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
-    joint_inertia = load_mass = rotator_inertia = None
+    joint_inertia = load_mass = rotator_inertia = swing_damping = None
     if top.has("dynamics"):
         dyn = top.section("dynamics")
         isec = dyn.section("joint_inertia")
@@ -377,6 +399,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
             rotator_inertia = isec.number(ROTATOR_NAME, gt=0, plausible=r["rotator_inertia"])
         isec.done()
         load_mass = dyn.number("load_mass", gt=0, plausible=r["load_mass"])
+        if dyn.has("swing_damping"):
+            swing_damping = dyn.number("swing_damping", ge=0, plausible=r["swing_damping"])
         dyn.done()
     if vsec is not None and joint_inertia is None:
         top.fail("dynamics", "required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)")
@@ -406,6 +430,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         oil_volume=oil_volume,
         rotator_oil_volume=rotator_oil_volume,
         rotator_inertia=rotator_inertia,
+        swing_damping=swing_damping,
         **radii,
     )
     if vsec is not None:  # each joint's natural frequency sqrt(4 beta d^2 / (V I)) / 2 pi must be plausible

@@ -316,12 +316,14 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], KINEMATIC_PLANT)
     # the tip's tracking is measured here, so the run ends at the tip's rest (the swing is left out of the
-    # settle rule, TIP_ONLY): on this plant the undamped grapple swings on for ~15 s after the tip has stopped
+    # settle rule, TIP_ONLY); the plan is swing-shaped (PlanOptions.swing_shaping), so even without the
+    # controller's swing damping the grapple arrives within the settle tolerance (a time-optimal plan left it
+    # swinging for ~15 s)
     res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=2 * traj.duration_s, **TIP_ONLY))
     arr = res.log.arrays(crane)
     arrival = [e.t for e in res.log.events if e.name == "arrival"]
     assert res.settled and len(arrival) == 1
-    assert arr["swing_rad"][-1] > LoopOptions().settle_swing_rad  # why: still swinging at the tip's rest
+    assert arr["swing_rad"][-1] < LoopOptions().settle_swing_rad
     assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
     spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
     assert path_deviation(arr["tip_p"], spline).max() < 0.02
@@ -331,8 +333,10 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, request
     k = np.minimum(np.arange(len(arr["t"])), len(traj.t) - 1)
     assert np.linalg.norm(arr["tip_p"] - plan_tip[k], axis=1).max() < 0.12
     lagged = np.minimum(np.maximum(np.arange(len(arr["t"])) - 12, 0), len(traj.t) - 1)  # 60 ms later
-    # the hydraulic plant (valve lag, oil spring) lags the fastest plans by up to ~6 cm
-    assert np.linalg.norm(arr["tip_p"] - plan_tip[lagged], axis=1).max() < 0.07
+    # the hydraulic plant (valve lag, oil spring) lags the fastest plans by up to ~6 cm; on a swing-shaped plan
+    # (ZV/ZVD: the path speed has the shaper's plateaus) the tracker's look-ahead runs up to ~15 cm ahead of the
+    # plan in mid-motion (measured: 0.154 m on `planned`, 0.039 m on its time-optimal version) and arrives on time
+    assert np.linalg.norm(arr["tip_p"] - plan_tip[lagged], axis=1).max() < 0.17
     assert res.diagnostics["hard_stop_hits"] == 0
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 
@@ -389,7 +393,7 @@ def test_swing_damping_adds_the_derived_damping_to_the_pendulum(lab):
         decay[zeta] = math.log(first / second) / (2 * period)  # amplitude rate (1/s)
         k_s = ctl.swing_gain_per_s
         assert k_s == pytest.approx(2 * zeta * math.sqrt(9.81 / lab.model.grapple_length))
-    c = SimParams().swing_damping_per_s
+    c = sim.swing_damping_per_s  # the crane file's swing damping (SimParams default None)
     assert decay[0.0] == pytest.approx(c / 2, rel=0.1)
     k_s = 2 * 0.1 * math.sqrt(9.81 / lab.model.grapple_length)
     assert decay[0.1] == pytest.approx((c + k_s) / 2, rel=0.15)
