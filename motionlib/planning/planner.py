@@ -708,8 +708,9 @@ class Planner:
         shaper : str
             The shaper's name (``none`` without shaping).
         details : dict
-            The unshaped motion's predicted residual swing and time to settled, the shaper chosen, the
-            time it adds and the candidates rejected by the verification.
+            The unshaped motion's predicted residual swing, time to settled and peak swing, the shaper
+            chosen, the time it adds, the shaped motion's residual and peak swing and the candidates
+            rejected by the verification.
         """
         o = self.options
         raw = (timing.t, timing.q, timing.qd, timing.qdd)
@@ -717,6 +718,7 @@ class Planner:
         details: dict[str, Any] = {
             "unshaped_residual_rad": unshaped.residual_rad,
             "unshaped_time_to_settled_s": unshaped.time_to_settled_s,
+            "unshaped_peak_rad": unshaped.peak_rad,
             "pendulum": {"length_m": self.pendulum.length_m, "damping_per_s": self.pendulum.damping_per_s,
                          "period_s": self.pendulum.period_s},
         }
@@ -772,7 +774,7 @@ class Planner:
         """:meth:`_shape`'s return for a verified shaped motion (``status`` ``ok`` or ``above_tolerance``)."""
         name = _shaper_label(motion)
         details.update(status=status, shaper=name, added_s=motion.duration_s - timing.duration_s,
-                       residual_rad=motion.swing.residual_rad, rejected=rejected)
+                       residual_rad=motion.swing.residual_rad, peak_rad=motion.swing.peak_rad, rejected=rejected)
         return (motion.t, motion.q, motion.qd, motion.qdd), motion.law, name, details
 
     def _config_valid(self, q: np.ndarray) -> bool:

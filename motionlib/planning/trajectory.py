@@ -151,11 +151,6 @@ class TrajectoryInfo:
     total_jerk: float = math.nan
     swing_shaper: str = ""
 
-    @property
-    def settled_time_s(self) -> float:
-        """The time to settled, or the duration when it was not computed (older files)."""
-        return self.duration_s if math.isnan(self.time_to_settled_s) else self.time_to_settled_s
-
     def to_attrs(self) -> dict[str, Any]:
         """Plain values per attribute name (stages as records)."""
         out = asdict(self)
