@@ -122,6 +122,9 @@ JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
 #: Times a swing-shaped motion over a limit is re-shaped with its base law stretched by the worst ratio.
 SHAPING_RESTRETCHES = 2
+#: Largest limit ratio a shaped motion is re-shaped for: a shaper that mixes path points whose joint ratios differ
+#: more (a wiggly path, e.g. a recorded operator's) is rejected rather than slowed down several times.
+MAX_RESTRETCH = 1.2
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
 
@@ -695,7 +698,7 @@ class Planner:
         ``swing_tolerance_rad`` and whose samples pass the dense verification (limits, pump,
         collisions and the residual swing again) is kept. A shaped motion that fails is rejected
         (its problem recorded) and never returned. When no candidate's swing is within the tolerance,
-        the one with the least swing is kept if it verifies (limits, pump, collisions): the stage's
+        the one with the least swing that verifies (limits, pump, collisions) is kept: the stage's
         status is then ``above_tolerance`` and the plan reports its residual swing and time to settled
         as they are (a plan is not refused for a swing the crane's damping removes in time).
 
@@ -730,19 +733,19 @@ class Planner:
         rejected: dict[str, str] = {}
         law = timing.law
         tol = o.swing_tolerance_rad
-        closest: ShapedMotion | None = None  # the candidate with the least swing, when none meets the tolerance
+        above: list[ShapedMotion] = []  # candidates above the tolerance, for when none meets it
         for candidate in shaped_candidates(law, self.crane, self.pendulum, tol, o.jerk_box_s, o.dt_s):
             if candidate.swing.residual_rad > tol:
-                if closest is None or candidate.swing.residual_rad < closest.swing.residual_rad:
-                    closest = candidate
+                above.append(candidate)
                 continue
             motion = self._verified_shaping(law, candidate, tol, rejected)
             if motion is not None:
                 return self._shaped(motion, timing, details, rejected, "ok")
-        if closest is not None:  # none meets the tolerance: the least swing, verified, reported as it is
-            motion = self._verified_shaping(law, closest, None, rejected)
+        # none meets the tolerance: the least swing that verifies, reported as it is
+        for candidate in sorted(above, key=lambda m: (m.swing.residual_rad, m.duration_s)):
+            motion = self._verified_shaping(law, candidate, None, rejected)
             if motion is not None:
-                details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least, "
+                details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least that verifies, "
                                      f"{motion.swing.residual_rad:.3f} rad, is kept")
                 return self._shaped(motion, timing, details, rejected, "above_tolerance")
         details.update(rejected=rejected, reason=f"no swing-shaped motion verifies (rejected: {len(rejected)})")
@@ -752,14 +755,15 @@ class Planner:
                           rejected: dict[str, str]) -> ShapedMotion | None:
         """``motion`` if it passes the dense verification (with the swing check for a ``tolerance``), or its
         re-shaping with the base law stretched by the worst limit ratio (at most ``SHAPING_RESTRETCHES``
-        times; the shaped speeds mix the path's joint ratios); None when it fails (problems in ``rejected``)."""
+        times, for ratios up to ``MAX_RESTRETCH``; the shaped speeds mix the path's joint ratios); None when
+        it fails (problems in ``rejected``)."""
         o = self.options
         for _ in range(SHAPING_RESTRETCHES + 1):
             report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, swing_tolerance_rad=tolerance)
             if report.ok:
                 return motion
             rejected[_shaper_label(motion)] = report.problems[0]
-            if report.collisions or report.swing or not report.limits:
+            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
                 return None
             motion = restretched(law, motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
                                  self.pendulum, o.swing_tolerance_rad, o.dt_s)
