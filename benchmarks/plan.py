@@ -10,7 +10,10 @@ pump-aware lower bound and to both telescope baselines (constant and linearly
 interpolated telescope on the tip-space path). ``--compare-old`` also plans every
 query with the tip-space path alone (the pipeline before joint-space candidates,
 ``PlanOptions(joint_candidates=False)``) in the same run and prints the duration
-and compute-time ratios new / old.
+and compute-time ratios new / old. Every plan also reports the grapple's predicted residual swing
+(rad), its time to settled (s), its total jerk (000 eq. 6, m^2/s^5) and the swing shaper chosen;
+``--no-swing-shaping`` plans the time-optimal motions (``PlanOptions(swing_shaping=False)``), and the
+summary gives the median ratio of the duration to the unshaped time-optimal one (stage ``swing``).
 
 The NLP of the redundancy stage is built once per crane (as in a library
 build); that one-off build time is reported separately and excluded from the
@@ -20,6 +23,7 @@ per-query times.
 from __future__ import annotations
 
 import argparse
+import collections
 import statistics
 import time
 from pathlib import Path
@@ -102,12 +106,14 @@ def slew_bound_s(crane: Crane, traj) -> float:
     return res.duration_s if res.ok else float("nan")
 
 
-def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bool) -> list[dict]:
+def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bool, shaping: bool = True) -> list[dict]:
     crane = Crane.load(crane_name)
     scene = Scene.load(ROOT / scene_file)
     variants = {"new": True, "old": False} if compare_old else {"new": True}
     planners = {
-        (v, loaded): Planner(crane, scene, PlanOptions(loaded=loaded, seed=seed, joint_candidates=joint))
+        (v, loaded): Planner(
+            crane, scene, PlanOptions(loaded=loaded, seed=seed, joint_candidates=joint, swing_shaping=shaping)
+        )
         for v, joint in variants.items()
         for loaded in (False, True)
     }
@@ -135,6 +141,13 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
                 lb_ratio=d / info.lower_bound_s,
                 source=f"{info.path_source}/{info.profile}",
                 slew_ratio=d / slew_bound_s(crane, res.trajectory),
+                swing_rad=info.residual_swing_rad,
+                settled_s=info.time_to_settled_s,
+                jerk=info.total_jerk,
+                shaper=info.swing_shaper,
+                unshaped_swing_rad=res.stages["swing"].details["unshaped_residual_rad"],
+                unshaped_settled_s=res.stages["swing"].details["unshaped_time_to_settled_s"],
+                shaping_ratio=d / (d - res.stages["swing"].details.get("added_s", 0.0)),
             )
         if compare_old:
             t0 = time.perf_counter()
@@ -152,9 +165,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--compare-old", action="store_true", help="also plan with the tip-space path alone")
+    ap.add_argument("--no-swing-shaping", action="store_true", help="time-optimal plans (no swing shaping)")
     args = ap.parse_args()
-    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed, args.compare_old)
-    rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed, args.compare_old)
+    shaping = not args.no_swing_shaping
+    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed, args.compare_old, shaping)
+    rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed, args.compare_old, shaping)
 
     cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s")
     ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
@@ -162,7 +177,7 @@ def main() -> None:
         f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'joint':>6} {'topt':>6} {'redund':>6} {'timing':>6} "
         f"{'verify':>6} "
         f"{'total':>6} {'old':>6} {'T (s)':>6} {'/js':>6} {'/lb':>6} {'/old':>6} {'/const':>6} {'/lin':>6} "
-        f"{'/slew':>6} source"
+        f"{'/slew':>6} {'swing':>6} {'settle':>6} {'jerk':>7} {'shaper':14} source"
     )
     print(head)
     print("-" * len(head))
@@ -171,7 +186,10 @@ def main() -> None:
         times = f"{r['total_s'] * 1000:6.0f} {r.get('old_total_s', float('nan')) * 1000:6.0f}"
         if r["ok"]:
             ratios = " ".join(f"{r.get(k, float('nan')):6.3f}" for k in ratio_keys)
-            tail = f"{r['duration_s']:6.2f} {ratios} {r['source']}"
+            tail = (
+                f"{r['duration_s']:6.2f} {ratios} {r['swing_rad']:6.3f} {r['settled_s']:6.2f} {r['jerk']:7.1f} "
+                f"{r['shaper']:14} {r['source']}"
+            )
         else:
             tail = f"FAILED: {r['reason']}"
         ok = "yes" if r["ok"] else "NO"
@@ -179,7 +197,8 @@ def main() -> None:
     print("(times in ms; old: compute of the tip-space-only pipeline; /js: duration over the joint-space baseline;")
     print(" /lb: over the pump-aware lower bound; /old: over the tip-space-only pipeline's duration;")
     print(" /const, /lin: over the constant- and linear-telescope baselines on the tip-space path (nan: infeasible);")
-    print(" /slew: over the slew-only bound of the chosen path)")
+    print(" /slew: over the slew-only bound of the chosen path; swing: predicted residual swing (rad); settle: time to")
+    print(" settled (s, the duration plus the swing's passive decay to 0.03 rad); jerk: total jerk (m^2/s^5, eq. 6))")
     for scene in sorted({r["scene"] for r in rows}) + ["all"]:
         sub = [r for r in rows if scene in ("all", r["scene"])]
         ok = [r for r in sub if r["ok"]]
@@ -198,6 +217,20 @@ def main() -> None:
             extra = f", max {max(vals):.3f}" if key == "old_ratio" and vals else ""
             parts.append(f"mean T/{label} {np.mean(vals) if vals else float('nan'):.3f} (n={len(vals)}{extra})")
         print("; ".join(parts))
+        if ok:
+            med = {
+                k: statistics.median(r[k] for r in ok)
+                for k in ("shaping_ratio", "swing_rad", "settled_s", "jerk", "unshaped_swing_rad", "unshaped_settled_s")
+            }
+            settle_ratio = statistics.median(r["settled_s"] / r["unshaped_settled_s"] for r in ok)
+            print(
+                f"  {scene} swing: median T/T_time-optimal {med['shaping_ratio']:.3f} (max "
+                f"{max(r['shaping_ratio'] for r in ok):.3f}); residual swing median {med['swing_rad']:.3f} rad (max "
+                f"{max(r['swing_rad'] for r in ok):.3f}; time-optimal {med['unshaped_swing_rad']:.3f}); time to "
+                f"settled median {med['settled_s']:.2f} s (time-optimal {med['unshaped_settled_s']:.2f} s, median "
+                f"ratio {settle_ratio:.3f}); total jerk median {med['jerk']:.1f} m^2/s^5; shapers "
+                f"{dict(sorted(collections.Counter(r['shaper'].split('*')[0] for r in ok).items()))}"
+            )
     for label, prefix, suffix in (
         ("bunk-center -> pile points, empty", "bunk->pile", ""),
         ("pile -> bunk-drop, loaded", "pile", "->drop"),

@@ -43,8 +43,18 @@ from .output import emit_json
     type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
     help="Wall-clock cap of the tip-path search (s): reaching it fails the plan (status timeout).",
 )
+@click.option("--swing-shaping/--no-swing-shaping", default=True, show_default=True,
+              help="Shape the time law so that the grapple arrives without swinging (jerk-limited); off: the "
+              "time-optimal law (its swing is still predicted and reported).")
+@click.option(
+    "--swing-tolerance",
+    default=0.03,
+    show_default=True,
+    type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["swing_tolerance_rad"].hard_hi),
+    help="Residual swing (rad) that counts as settled: the shaping's target and the time to settled's tolerance.",
+)
 def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, plot_dir, seed, planner,
-         max_checks, time_limit) -> None:
+         max_checks, time_limit, swing_shaping, swing_tolerance) -> None:
     """Plan a collision-free, near time-optimal trajectory (path, telescope profile, timing, verification)."""
     from motionlib import Crane, PlanOptions, Scene
     from motionlib import plan as plan_motion
@@ -54,7 +64,7 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
     scene = Scene.load(scene_file)
     budget = {} if max_checks is None else {"max_checks": max_checks}
     options = PlanOptions(loaded=loaded, seed=seed, planner=planner, time_limit_s=time_limit, goal_log_yaw=log_yaw,
-                          **budget)
+                          swing_shaping=swing_shaping, swing_tolerance_rad=swing_tolerance, **budget)
     n_start = 5 if crane.rotator is not None and start.count(",") == 4 else 4
     start_q = parse_csv_floats(start, n_start, "--start", VECTOR_LIMIT) if "," in start else start
     goal_p = parse_csv_floats(goal, 3, "--goal", VECTOR_LIMIT) if "," in goal else goal
@@ -75,6 +85,12 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
         "baseline_linear_s": result.baselines["linear"],
         "baseline_jointspace_s": result.baselines["jointspace"],
         "lower_bound_s": info.lower_bound_s,
+        "time_to_settled_s": info.time_to_settled_s,
+        "residual_swing_rad": info.residual_swing_rad,
+        "swing_tolerance_rad": info.swing_tolerance_rad,
+        "swing_shaper": info.swing_shaper,
+        "time_optimal_s": traj.duration_s - result.stages["swing"].details.get("added_s", 0.0),
+        "total_jerk": info.total_jerk,
         "path_source": info.path_source,
         "profile": info.profile,
         "energy_m3": info.energy_m3,
@@ -100,6 +116,12 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
         value = result.baselines[name]
         click.echo(f"  baseline, {label}: " + (f"{value:.2f} s" if value is not None else "infeasible"))
     click.echo(f"  lower bound: {info.lower_bound_s:.2f} s")
+    click.echo(
+        f"  time to settled: {info.time_to_settled_s:.2f} s (predicted residual swing {info.residual_swing_rad:.3f} "
+        f"rad, tolerance {info.swing_tolerance_rad:g} rad; swing shaping {info.swing_shaper}, time-optimal "
+        f"{summary['time_optimal_s']:.2f} s)"
+    )
+    click.echo(f"  total jerk (000 eq. 6): {info.total_jerk:.1f} m^2/s^5")
     if "log_yaw_end_rad" in summary:
         click.echo(f"  log yaw at the end: {summary['log_yaw_end_rad']:.4f} rad")
     click.echo("  stage times: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in summary["stage_times_s"].items()))

@@ -16,14 +16,11 @@ import numpy as np
 
 from ..checks import check_params, check_vector, param
 from ..errors import InputError
+from ..model.crane_model import GRAVITY_M_S2  # noqa: F401 (re-exported: defined with the crane's pendulum)
 from ..model.fast_kinematics import Vec3, Vec4
 
 _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
-
-
-#: Standard gravity (m/s^2).
-GRAVITY_M_S2 = 9.81
 
 class Mode(enum.Enum):
     """Operating modes of 000 section 3.3."""

@@ -8,7 +8,12 @@ whose start is within ``L2`` of ``q_c`` (003 eq. 5.4, ``d2(c, q_c) = ||W (c - q_
 diagonal), i.e. the acceptable set of 003 eq. 5.5, and ranks them by a utility ``E`` (003 eq. 5.6):
 
 ``time``
-    ``E = -duration_s``: the fastest trajectory.
+    ``E = -time_to_settled_s``: the trajectory that arrives settled first. 003 eqs. 5.3-5.7 rank by the
+    duration ``T``; motionlib ranks by the plan's time to settled, ``T`` plus the passive decay of the
+    grapple's predicted residual swing to the plan's tolerance (:mod:`motionlib.planning.swing`),
+    because a motion that ends with the grapple swinging is not done when it ends (issue 22). A
+    library without it (built before trajectory schema 4: NaN) falls back to the duration, the
+    utility of 003.
 ``energy``
     ``E = -energy_m3``: the least displaced hydraulic oil.
 ``robust``
@@ -21,7 +26,8 @@ result is deterministic.
 Index data the library must store (one row per successful entry)
 ----------------------------------------------------------------
 ``start_q`` (n, 4) rad, rad, rad, m; ``end_p`` (n, 3) m, tip end point in the base frame;
-``duration_s`` (n,) s; ``energy_m3`` (n,) m^3; and, for the ``robust`` utility, the *approach*:
+``duration_s`` (n,) s; ``energy_m3`` (n,) m^3; optionally ``time_to_settled_s`` (n,) s (NaN: not
+computed) for the ``time`` utility; and, for the ``robust`` utility, the *approach*:
 
 ``approach_p`` (n, k, 3) m
     ``k`` tip points (base frame) equally spaced in arc length along the final
@@ -139,7 +145,8 @@ class Candidate:
     duration_s, energy_m3 : float
         Duration (s) and hydraulic energy proxy (m^3).
     score : float
-        Utility ``E`` (higher is better): ``-duration_s``, ``-energy_m3`` or ``-expected total time``.
+        Utility ``E`` (higher is better): ``-time to settled`` (the duration where it is not known),
+        ``-energy_m3`` or ``-expected total time``.
     end_distance_m : float
         ``d1``: distance (m) of the end point from the estimated target.
     start_distance : float
@@ -270,7 +277,7 @@ class SelectionResult:
             duration = float(ix.duration_s[i])
             energy = float(ix.energy_m3[i])
             if self.utility is Utility.TIME:
-                what = f"duration {duration:.2f} s"
+                what = f"settled after {-score:.2f} s (duration {duration:.2f} s)"
             elif self.utility is Utility.ENERGY:
                 what = f"energy {energy * 1e3:.2f} l oil (duration {duration:.2f} s)"
             else:
@@ -371,6 +378,9 @@ class SelectionIndex:
         Approach points (m, base frame; see the module docstring). Needed for the ``robust`` utility.
     approach_t : array_like, shape (n, k), optional
         Their time stamps (s). Given together with ``approach_p``.
+    time_to_settled_s : array_like, shape (n,), optional
+        Time to settled (s, >= the duration; NaN: not computed, the duration is used), the ``time``
+        utility's measure (module docstring); None: the durations.
     start_weights : array_like, shape (4,)
         Diagonal of ``W`` (> 0), default :data:`DEFAULT_START_WEIGHTS`.
     n_samples : int
@@ -394,6 +404,7 @@ class SelectionIndex:
         energy_m3: Any,
         approach_p: Any = None,
         approach_t: Any = None,
+        time_to_settled_s: Any = None,
         start_weights: Any = DEFAULT_START_WEIGHTS,
         n_samples: int = ROBUST_SAMPLES,
         sample_seed: int = 0,
@@ -421,7 +432,16 @@ class SelectionIndex:
         self.energy_m3 = _frozen(energy)
         self.start_weights = _frozen(weights)
         self.approach_p, self.approach_t = self._check_approach(approach_p, approach_t)
-        self._scores = {Utility.TIME: _frozen(-duration), Utility.ENERGY: _frozen(-energy)}
+        settled = duration.copy()
+        if time_to_settled_s is not None:
+            given = np.asarray(time_to_settled_s, dtype=np.float64)
+            if given.shape != (n,) or np.any(np.isinf(given)) or np.any(given < duration * (1.0 - 1e-9)):
+                raise InputError(
+                    f"time_to_settled_s: expected ({n},) finite times >= the durations or NaN, got shape {given.shape}"
+                )
+            settled = np.where(np.isnan(given), duration, given)
+        self.time_to_settled_s = _frozen(settled)
+        self._scores = {Utility.TIME: _frozen(-settled), Utility.ENERGY: _frozen(-energy)}
 
         self._tree = cKDTree(self.end_p)
         starts, inverse = np.unique(self.start_q, axis=0, return_inverse=True)

@@ -65,6 +65,10 @@ PLANNER_RANGES: dict[str, Plausible] = {
     "n_samples": Plausible(2, 1000, 2, 10_000),
     "max_iter": Plausible(1, 10_000, 1, 1_000_000),
     "goal_log_yaw": Plausible(-2 * math.pi, 2 * math.pi, -4 * math.pi, 4 * math.pi, "rad"),
+    # the residual swing a plan may leave: from a still grapple to ~30 degrees (the linear pendulum's range)
+    "swing_tolerance_rad": Plausible(1e-3, 0.5, 1e-5, 1.5, "rad"),
+    # the jerk-limiting box of swing shaping: from a fast valve's opening to a slow operator's
+    "jerk_box_s": Plausible(0.01, 1.0, 1e-3, 10.0, "s"),
 }
 OTHER_FLOAT = Plausible(0.0, 1e3, 0.0, 1e6)
 OTHER_INT = Plausible(1, 10_000, 1, 1_000_000)
@@ -377,7 +381,8 @@ def _integer(sec: Section, key: str, default: Any, lo: int | None = None, hi: in
     return int(value)
 
 
-_POSITIVE = {"time_limit_s", "dt_s", "verify_tip_spacing_m", "check_step_m"}  # options that must be > 0
+#: Options that must be > 0.
+_POSITIVE = {"time_limit_s", "dt_s", "verify_tip_spacing_m", "check_step_m", "swing_tolerance_rad", "jerk_box_s"}
 
 
 def _read_planner(sec: Section) -> dict[str, Any]:

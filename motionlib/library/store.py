@@ -12,7 +12,9 @@ A library file is one HDF5 file holding the set Q of pre-planned trajectories of
     Contiguous arrays over the ``n_ok`` successful entries (row ``i`` = the
     ``i``-th successful entry in entry order): ``entry`` (n,), ``start_q`` (n, 4),
     ``end_p`` (n, 3), ``duration_s``, ``energy_m3``, ``path_length_m``,
-    ``clearance_m`` (n,), ``approach_p`` (n, k, 3), ``approach_t`` (n, k).
+    ``clearance_m`` (n,), ``approach_p`` (n, k, 3), ``approach_t`` (n, k); since version 3 also
+    ``residual_swing_rad``, ``time_to_settled_s`` and ``total_jerk`` (n,) (NaN: not computed; older
+    libraries read as all NaN).
 ``/entries/*``
     One row per entry, failed ones included: ``key``, ``motion``, ``start``,
     ``start_q``, ``target``, ``target_p``, ``loaded``, ``seed``, ``status``,
@@ -37,6 +39,7 @@ trajectory arrays carry HDF5's Fletcher-32 checksum. Any failure is a
 from __future__ import annotations
 
 import functools
+import math
 import re
 from collections import Counter
 from collections.abc import Sequence
@@ -68,7 +71,8 @@ from .selection import APPROACH_LENGTH_M, APPROACH_POINTS, SelectionIndex, Selec
 
 LIBRARY_SCHEMA = "motionlib.library"
 #: 2: the file is sealed (:func:`motionlib.fileio.seal_hdf5`; unsealed libraries are refused: rebuild them).
-LIBRARY_VERSION = 2
+#: 3: the index has each plan's predicted residual swing, time to settled and total jerk (:data:`SWING_FIELDS`).
+LIBRARY_VERSION = 3
 
 #: Index arrays: name -> shape after the row axis (``k`` = number of approach points).
 INDEX_FIELDS: dict[str, tuple[str, ...]] = {
@@ -82,6 +86,8 @@ INDEX_FIELDS: dict[str, tuple[str, ...]] = {
     "approach_p": ("k", "3"),
     "approach_t": ("k",),
 }
+#: Index arrays of version 3 (n,): NaN where not computed; libraries before version 3 read them as NaN.
+SWING_FIELDS: tuple[str, ...] = ("residual_swing_rad", "time_to_settled_s", "total_jerk")
 #: Entry-table columns: name -> (kind, shape after the row axis).
 ENTRY_FIELDS: dict[str, tuple[str, tuple[int, ...]]] = {
     "key": ("str", ()),
@@ -127,6 +133,9 @@ class IndexRow:
     approach_p : ndarray, shape (k, 3)
     approach_t : ndarray, shape (k,)
         Approach points (m) and their times (s), see :func:`motionlib.library.selection.approach_samples`.
+    residual_swing_rad, time_to_settled_s, total_jerk : float
+        The trajectory's predicted residual swing (rad), time to settled (s) and total jerk (m^2/s^5)
+        (:class:`~motionlib.planning.trajectory.TrajectoryInfo`); NaN: not computed.
     """
 
     start_q: np.ndarray
@@ -137,6 +146,9 @@ class IndexRow:
     clearance_m: float
     approach_p: np.ndarray
     approach_t: np.ndarray
+    residual_swing_rad: float = math.nan
+    time_to_settled_s: float = math.nan
+    total_jerk: float = math.nan
 
     @classmethod
     def from_trajectory(cls, traj: Trajectory, crane: Any, start_q: Any) -> IndexRow:
@@ -162,6 +174,9 @@ class IndexRow:
             clearance_m=float(traj.info.min_clearance_m),
             approach_p=approach_p,
             approach_t=approach_t,
+            residual_swing_rad=float(traj.info.residual_swing_rad),
+            time_to_settled_s=float(traj.info.time_to_settled_s),
+            total_jerk=float(traj.info.total_jerk),
         )
 
 
@@ -355,6 +370,7 @@ class LibraryWriter:
             "clearance_m": np.array([r.clearance_m for r in self._rows], dtype=np.float64),
             "approach_p": _stack([r.approach_p for r in self._rows], (0, k, 3)),
             "approach_t": _stack([r.approach_t for r in self._rows], (0, k)),
+            **{key: np.array([getattr(r, key) for r in self._rows], dtype=np.float64) for key in SWING_FIELDS},
         }
         for key, data in columns.items():
             _checked_dataset(index, key, data)
@@ -424,6 +440,9 @@ class Library:
     duration_s, energy_m3, path_length_m, clearance_m : ndarray, shape (n,)
     approach_p : ndarray, shape (n, k, 3)
     approach_t : ndarray, shape (n, k)
+    residual_swing_rad, time_to_settled_s, total_jerk : ndarray, shape (n,)
+        Predicted residual swing (rad), time to settled (s), total jerk (m^2/s^5); NaN: not computed
+        (all NaN in libraries before version 3).
     """
 
     entry: np.ndarray
@@ -435,6 +454,9 @@ class Library:
     clearance_m: np.ndarray
     approach_p: np.ndarray
     approach_t: np.ndarray
+    residual_swing_rad: np.ndarray
+    time_to_settled_s: np.ndarray
+    total_jerk: np.ndarray
 
     def __init__(self, path: Path, attrs: dict[str, Any], arrays: dict[str, np.ndarray]):
         self.path = path
@@ -508,7 +530,8 @@ class Library:
         if len(self) == 0:
             raise InputError(f"{self.path}: the library has no successful entries to select from")
         return SelectionIndex(
-            self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t
+            self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t,
+            self.time_to_settled_s,
         )
 
     def select(self, target_p: Any, current_q: Any = None, utility: str = "time", **kw: Any) -> SelectionResult:
@@ -703,6 +726,18 @@ def _read_index(path: Path, f: h5py.File, n: int, n_entries: int) -> dict[str, n
         finite = np.isfinite(data) | np.isnan(data) if key == "energy_m3" else np.isfinite(data)  # NaN: no hydraulics
         if not np.all(finite):
             raise LibraryFileError(f"{where}: {name} holds a non-finite value")
+        arrays[key] = data
+    for key in SWING_FIELDS:  # version 3; NaN (not computed) in older libraries and for old trajectories
+        name = f"/index/{key}"
+        if key not in group:
+            arrays[key] = np.full(n, np.nan)
+            continue
+        ds = f.get(name)
+        if not isinstance(ds, h5py.Dataset) or ds.shape != (n,):
+            raise LibraryFileError(f"{where}: {name} is not a dataset of shape ({n},)")
+        data = read_array(f, name, where, max(1, n), np.float64)
+        if np.any(np.isinf(data)) or np.any(data < 0.0):
+            raise LibraryFileError(f"{where}: {name} holds a value that is not >= 0 or NaN")
         arrays[key] = data
     entry = arrays["entry"]
     if n and not (np.all(np.diff(entry) > 0) and entry[0] >= 0 and entry[-1] < n_entries):

@@ -31,6 +31,12 @@ CRANES_DIR = Path(__file__).parent / "cranes"
 STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
 #: The :class:`CraneModel` fields of the load path (optional; left out of ``to_dict`` when None).
 LOAD_PATH_FIELDS: tuple[str, ...] = ("relief_pressure", "grapple_close_time", "grapple_open_time")
+#: Standard gravity (m/s^2).
+GRAVITY_M_S2 = 9.81
+#: Swing damping ``c`` (1/s) of the grapple pendulum when the crane file gives no ``dynamics.swing_damping``:
+#: small swings decay as ``exp(-c t / 2)``. Assumption (the simulated crane's value since it has a pendulum:
+#: the passive two-axis joint's friction and air drag, a swing halves in ~3.5 s).
+DEFAULT_SWING_DAMPING_PER_S = 0.4
 
 _TURN = 2.0 * math.pi
 #: Highest hydraulic natural frequency (Hz) the plant's 1 kHz semi-implicit Euler step of the oil spring
@@ -70,6 +76,8 @@ PLAUSIBLE: dict[str, Plausible] = {
     "joint_inertia": Plausible(1.0, 1e6, 1e-3, 1e9, "kg m^2 or kg"),
     "rotator_inertia": Plausible(0.01, 1e4, 1e-5, 1e7, "kg m^2"),  # grapple and log about the hanging axis
     "load_mass": Plausible(1.0, 1e4, 1e-3, 1e6, "kg"),
+    # swing damping c of the grapple pendulum: a swing decays as exp(-c t / 2), half-lives from ~0.3 s to ~140 s
+    "swing_damping": Plausible(0.01, 5.0, 0.0, 100.0, "1/s"),
     "log_length": Plausible(0.1, 30.0, 1e-3, 1e3, "m"),
     "log_diameter": Plausible(0.01, 3.0, 1e-4, 100.0, "m"),
     "grapple_time": Plausible(0.1, 10.0, 1e-3, 1e3, "s"),  # grapple_close_time, grapple_open_time
@@ -173,6 +181,11 @@ class CraneModel:
     the relief valves' setting; with ``displacement`` each joint's capacity, :meth:`joint_capacities`) and
     ``grapple_close_time``, ``grapple_open_time`` (s, ``dynamics``: the grapple's closing and opening
     time, after which a grasped log hangs on the rod or has left it).
+
+    ``swing_damping`` (1/s, optional ``dynamics.swing_damping``; ``None`` when the file gives
+    none) is the damping ``c`` of the grapple's swing on its rod of length ``grapple_length``: small
+    swings decay as ``exp(-c t / 2)``. The planner's pendulum (:mod:`motionlib.planning.swing`) and
+    the simulated crane read it through :attr:`grapple_swing_damping_per_s`.
     """
 
     name: str
@@ -218,6 +231,12 @@ class CraneModel:
         if with_rotator and self.rotator is not None and self.rotator_displacement is not None:
             d.append(self.rotator_displacement)
         return tuple(joint_capacity(self.relief_pressure, di) for di in d)
+    swing_damping: float | None = None
+
+    @property
+    def grapple_swing_damping_per_s(self) -> float:
+        """Swing damping ``c`` (1/s): ``dynamics.swing_damping``, or :data:`DEFAULT_SWING_DAMPING_PER_S`."""
+        return DEFAULT_SWING_DAMPING_PER_S if self.swing_damping is None else self.swing_damping
 
     @property
     def has_stiffness(self) -> bool:
@@ -261,8 +280,8 @@ class CraneModel:
         out = asdict(self)
         if self.plausibility == "strict":
             del out["plausibility"]
-        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", *STIFFNESS_FIELDS,
-                    *LOAD_PATH_FIELDS):
+        for key in ("joint_inertia", "load_mass", "rotator", "rotator_displacement", "swing_damping",
+                    *STIFFNESS_FIELDS, *LOAD_PATH_FIELDS):
             if out[key] is None:
                 del out[key]
         return out
@@ -330,6 +349,8 @@ class CraneModel:
             if self.grapple_close_time is not None:
                 out["dynamics"]["grapple_close_time"] = self.grapple_close_time
                 out["dynamics"]["grapple_open_time"] = self.grapple_open_time
+            if self.swing_damping is not None:
+                out["dynamics"]["swing_damping"] = self.swing_damping
         return out
 
     @property
@@ -430,7 +451,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
-    joint_inertia = load_mass = rotator_inertia = close_time = open_time = None
+    joint_inertia = load_mass = rotator_inertia = close_time = open_time = swing_damping = None
     if top.has("dynamics"):
         dyn = top.section("dynamics")
         isec = dyn.section("joint_inertia")
@@ -442,6 +463,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         if dyn.has("grapple_close_time") or dyn.has("grapple_open_time"):  # both keys or neither
             close_time = dyn.number("grapple_close_time", gt=0, plausible=r["grapple_time"])
             open_time = dyn.number("grapple_open_time", gt=0, plausible=r["grapple_time"])
+        if dyn.has("swing_damping"):
+            swing_damping = dyn.number("swing_damping", ge=0, plausible=r["swing_damping"])
         dyn.done()
     if vsec is not None and joint_inertia is None:
         top.fail("dynamics", "required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)")
@@ -474,6 +497,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         relief_pressure=relief_pressure,
         grapple_close_time=close_time,
         grapple_open_time=open_time,
+        swing_damping=swing_damping,
         **radii,
     )
     if vsec is not None:  # each joint's natural frequency sqrt(4 beta d^2 / (V I)) / 2 pi must be plausible

@@ -34,6 +34,11 @@ result with a status):
    spacing; when samples between TOPPRA's grid points overshoot a limit, that path is re-timed
    under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
    which source won (also ``TrajectoryInfo.path_source``).
+5. ``swing`` (:mod:`motionlib.planning.shaping`, ``PlanOptions.swing_shaping``): the winner's time law is
+   shaped so that the grapple's predicted residual swing (:mod:`motionlib.planning.swing`) is within
+   ``swing_tolerance_rad`` at the end, with a jerk-limiting box; candidates shortest first, the first that
+   verifies densely again (limits, pump, collisions, the residual swing) is stored. Every plan reports its
+   predicted residual swing, time to settled and total jerk (000 eq. 6) in :class:`TrajectoryInfo`.
 
 Grapple rotator (cranes with one, :mod:`motionlib.planning.rotator`): every candidate's joint path
 gets a fifth column, the rotator profile q5(s), so that the log ends at ``PlanOptions.goal_log_yaw``
@@ -77,11 +82,15 @@ from .redundancy import (
     telescope_bounds,
 )
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
+from .shaping import ShapedMotion, restretched, shaped_candidates
+from .smoothness import smoothness
 from .spline import TipSpline
+from .swing import predict_swing
+from .time_law import TimeLaw
 from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
 from .trajopt import fastest_valid_trajectory
-from .verification import Verifier, time_and_verify
+from .verification import LIMIT_TOLERANCE, Verifier, time_and_verify
 
 
 class PlanStatus(Enum):
@@ -93,6 +102,7 @@ class PlanStatus(Enum):
     REDUNDANCY_FAILED = "redundancy"
     TIMING_FAILED = "timing"
     VERIFICATION_FAILED = "verification"
+    SWING_FAILED = "swing"  # no swing-shaped motion passed the dense verification
     TIMEOUT = "timeout"  # a search ran into its wall-clock cap (never a different answer)
 
 
@@ -100,8 +110,9 @@ class PlanStatus(Enum):
 #: trajectories for the same spec bumps it, so libraries built before are rebuilt.
 #: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins;
 #: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
-#: validity checks, not seconds (the same answer on any machine and load).
-PLANNER_VERSION = 4
+#: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
+#: (:mod:`motionlib.planning.shaping`), jerk-limited.
+PLANNER_VERSION = 5
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -109,6 +120,11 @@ GIVEN_SOURCE = "given"  # the path of Planner.plan_along
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
+#: Times a swing-shaped motion over a limit is re-shaped with its base law stretched by the worst ratio.
+SHAPING_RESTRETCHES = 2
+#: Largest limit ratio a shaped motion is re-shaped for: a shaper that mixes path points whose joint ratios differ
+#: more (a wiggly path, e.g. a recorded operator's) is rejected rather than slowed down several times.
+MAX_RESTRETCH = 1.2
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
 
@@ -167,6 +183,19 @@ class PlanOptions:
         Cranes with a grapple rotator: the yaw (rad, base frame, mod pi) the carried log must have
         at the goal, e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW` (aligned with the bunk,
         between the stakes); None: the rotator keeps its start angle. Ignored without a rotator.
+    swing_shaping : bool
+        Shape the verified time-optimal time law so that the grapple's predicted residual swing
+        (:mod:`motionlib.planning.swing`, the pendulum of the crane file, ``loaded`` or not) is within
+        ``swing_tolerance_rad`` at the end, jerk-limited (:mod:`motionlib.planning.shaping`); the shaped
+        samples are verified again. False: the time-optimal samples (the swing is still predicted and
+        reported).
+    swing_tolerance_rad : float
+        Residual swing amplitude (rad) that counts as settled: the shaping's target and the tolerance of
+        the reported time to settled (the simulated run's ``LoopOptions.settle_swing_rad`` is 0.03 too).
+    jerk_box_s : float
+        Length (s) of the moving average every shaped time law gets: the path jerk is bounded by the
+        path acceleration's largest change over it. Assumption: 0.1 s, the time a proportional valve's
+        spool takes to open (2-3 time constants of the plant's 0.04 s, ``SimParams.tau_s``).
     """
 
     loaded: bool = False
@@ -186,6 +215,9 @@ class PlanOptions:
     joint_candidates: bool = True
     joint_candidates_max: int = 1
     goal_log_yaw: float | None = None
+    swing_shaping: bool = True
+    swing_tolerance_rad: float = 0.03
+    jerk_box_s: float = 0.1
 
 
 @dataclass
@@ -276,6 +308,8 @@ class Planner:
             ]
             self.full_verifier = Verifier(crane, scene, self.full_limits, o.loaded, o.verify_tip_spacing_m)
         self._last_q4 = 0.5 * (crane.q_min[3] + crane.q_max[3])  # see _tip_valid
+        #: The grapple pendulum (:mod:`motionlib.planning.swing`) of the crane file, empty or loaded.
+        self.pendulum = self.verifier.pendulum
         #: (4,) rad, m: how far minimum-time joint motions keep inside the joint limits (see PlanOptions)
         self._limit_margin = np.array([o.reach_margin_rad] * 3 + [o.redundancy.telescope_margin_m])
 
@@ -598,11 +632,22 @@ class Planner:
             },
         )
 
+        t0 = time.perf_counter()
+        samples, law, shaper, swing_details = self._shape(timing)
+        stages["swing"] = StageReport(swing_details.get("status", "ok") if samples is not None else "failed",
+                                      time.perf_counter() - t0, swing_details)
+        if samples is None or law is None:
+            return fail(PlanStatus.SWING_FAILED, swing_details["reason"], baselines)
+        t, q, qd, qdd = samples
+        swing = predict_swing(crane, t, q, qd, self.pendulum, o.swing_tolerance_rad)
+        # total jerk (000 eq. 6) on a uniform grid (the last sample step is shorter), at rest after the end
+        t_uniform = np.arange(int(np.ceil(t[-1] / o.dt_s)) + 1) * o.dt_s
+        jerk = smoothness(t_uniform, crane.fk_batch(law.sample(t_uniform)[0]))["total_jerk"]
         info = TrajectoryInfo(
-            duration_s=timing.duration_s,
+            duration_s=float(t[-1]),
             path_length_m=float(cand.spline.length),
-            energy_m3=self.full_verifier.oil_volume_m3(timing.t, timing.qd),
-            min_clearance_m=self.full_verifier.min_clearance(timing.q),
+            energy_m3=self.full_verifier.oil_volume_m3(t, qd),
+            min_clearance_m=self.full_verifier.min_clearance(q),
             crane=crane.name,
             crane_digest=crane.model.digest,
             scene=self.scene.name,
@@ -619,13 +664,18 @@ class Planner:
             lower_bound_s=lower_bound,
             stages=dict(stages),
             limits=self.full_verifier.limits_record(o.clearance_m, o.arm_clearance_m),
+            residual_swing_rad=swing.residual_rad,
+            time_to_settled_s=swing.time_to_settled_s,
+            swing_tolerance_rad=o.swing_tolerance_rad,
+            total_jerk=jerk,
+            swing_shaper=shaper,
         )
         rotator = cand.rotators.get(chosen)
         traj = Trajectory(
-            t=timing.t,
-            q=timing.q[:, :4],
-            qd=timing.qd[:, :4],
-            qdd=timing.qdd[:, :4],
+            t=t,
+            q=q[:, :4],
+            qd=qd[:, :4],
+            qdd=qdd[:, :4],
             path_s=cand.s_grid,
             path_tip=cand.spline(cand.s_grid),
             waypoints=_waypoints(cand.spline),
@@ -633,11 +683,103 @@ class Planner:
             spline_coefficients=cand.spline.coefficients,
             telescope_control_points=cand.profiles[chosen].control_points,
             info=info,
-            rotator=np.column_stack([timing.q[:, 4], timing.qd[:, 4], timing.qdd[:, 4]]) if rotator else None,
+            rotator=np.column_stack([q[:, 4], qd[:, 4], qdd[:, 4]]) if rotator else None,
             rotator_control_points=rotator.control_points if rotator else None,
         )
         baselines["jointspace"] = None if math.isnan(baseline_jointspace_s) else baseline_jointspace_s
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
+
+    def _shape(
+        self, timing: TimingResult
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, TimeLaw | None, str, dict[str, Any]]:
+        """Stage 5: swing shaping of the verified time-optimal timing (:mod:`motionlib.planning.shaping`).
+
+        The candidates come shortest first; the first whose predicted residual swing is within
+        ``swing_tolerance_rad`` and whose samples pass the dense verification (limits, pump,
+        collisions and the residual swing again) is kept. A shaped motion that fails is rejected
+        (its problem recorded) and never returned. When no candidate's swing is within the tolerance,
+        the one with the least swing that verifies (limits, pump, collisions) is kept: the stage's
+        status is then ``above_tolerance`` and the plan reports its residual swing and time to settled
+        as they are (a plan is not refused for a swing the crane's damping removes in time).
+
+        Returns
+        -------
+        samples : (t, q, qd, qdd) or None
+            The samples to store; None when no candidate passed (``details["reason"]`` says why).
+        law : TimeLaw or None
+            Their time law.
+        shaper : str
+            The shaper's name (``none`` without shaping).
+        details : dict
+            The unshaped motion's predicted residual swing, time to settled and peak swing, the shaper
+            chosen, the time it adds, the shaped motion's residual and peak swing and the candidates
+            rejected by the verification.
+        """
+        o = self.options
+        raw = (timing.t, timing.q, timing.qd, timing.qdd)
+        unshaped = predict_swing(self.crane, timing.t, timing.q, timing.qd, self.pendulum, o.swing_tolerance_rad)
+        details: dict[str, Any] = {
+            "unshaped_residual_rad": unshaped.residual_rad,
+            "unshaped_time_to_settled_s": unshaped.time_to_settled_s,
+            "unshaped_peak_rad": unshaped.peak_rad,
+            "pendulum": {"length_m": self.pendulum.length_m, "damping_per_s": self.pendulum.damping_per_s,
+                         "period_s": self.pendulum.period_s},
+        }
+        if not o.swing_shaping:
+            return raw, timing.law, "none", details
+        if timing.law is None:
+            details["reason"] = "the timing has no time law to shape"
+            return None, None, "", details
+        rejected: dict[str, str] = {}
+        law = timing.law
+        tol = o.swing_tolerance_rad
+        above: list[ShapedMotion] = []  # candidates above the tolerance, for when none meets it
+        for candidate in shaped_candidates(law, self.crane, self.pendulum, tol, o.jerk_box_s, o.dt_s):
+            if candidate.swing.residual_rad > tol:
+                above.append(candidate)
+                continue
+            motion = self._verified_shaping(law, candidate, tol, rejected)
+            if motion is not None:
+                return self._shaped(motion, timing, details, rejected, "ok")
+        # none meets the tolerance: the least swing that verifies, reported as it is
+        for candidate in sorted(above, key=lambda m: (m.swing.residual_rad, m.duration_s)):
+            motion = self._verified_shaping(law, candidate, None, rejected)
+            if motion is not None:
+                details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least that verifies, "
+                                     f"{motion.swing.residual_rad:.3f} rad, is kept")
+                return self._shaped(motion, timing, details, rejected, "above_tolerance")
+        details.update(rejected=rejected, reason=f"no swing-shaped motion verifies (rejected: {len(rejected)})")
+        return None, None, "", details
+
+    def _verified_shaping(self, law: TimeLaw, motion: ShapedMotion, tolerance: float | None,
+                          rejected: dict[str, str]) -> ShapedMotion | None:
+        """``motion`` if it passes the dense verification (with the swing check for a ``tolerance``), or its
+        re-shaping with the base law stretched by the worst limit ratio (at most ``SHAPING_RESTRETCHES``
+        times, for ratios up to ``MAX_RESTRETCH``; the shaped speeds mix the path's joint ratios); None when
+        it fails (problems in ``rejected``)."""
+        o = self.options
+        for _ in range(SHAPING_RESTRETCHES + 1):
+            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, swing_tolerance_rad=tolerance)
+            if report.ok:
+                return motion
+            rejected[_shaper_label(motion)] = report.problems[0]
+            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
+                return None
+            motion = restretched(law, motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
+                                 self.pendulum, o.swing_tolerance_rad, o.dt_s)
+            if tolerance is not None and motion.swing.residual_rad > tolerance:
+                return None
+        return None
+
+    @staticmethod
+    def _shaped(
+        motion: ShapedMotion, timing: TimingResult, details: dict[str, Any], rejected: dict[str, str], status: str
+    ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], TimeLaw, str, dict[str, Any]]:
+        """:meth:`_shape`'s return for a verified shaped motion (``status`` ``ok`` or ``above_tolerance``)."""
+        name = _shaper_label(motion)
+        details.update(status=status, shaper=name, added_s=motion.duration_s - timing.duration_s,
+                       residual_rad=motion.swing.residual_rad, peak_rad=motion.swing.peak_rad, rejected=rejected)
+        return (motion.t, motion.q, motion.qd, motion.qdd), motion.law, name, details
 
     def _config_valid(self, q: np.ndarray) -> bool:
         """Joint-space validity under the tip planner's rules: within the joint limits, the arm keeps
@@ -809,6 +951,12 @@ class Planner:
                 rotators[name] = rot
                 return
         rejected[name] = f"the arm or the turned log comes within {o.arm_clearance_m} m of an obstacle"
+
+
+def _shaper_label(motion: ShapedMotion) -> str:
+    """The shaper's name, with ``*<stretch>`` when its base law was stretched to keep the limits."""
+    stretched = motion.shaper.stretch > 1.0 and not motion.shaper.name.startswith("stretch")
+    return motion.shaper.name + (f"*{motion.shaper.stretch:.3f}" if stretched else "")
 
 
 def _waypoints(spline: TipSpline) -> np.ndarray:

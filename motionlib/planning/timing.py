@@ -10,7 +10,8 @@ solver) finds the fastest path speed profile ``s_dot(s)`` under
 
 at the requested path speeds at the two ends (rest by default). The trajectory
 is TOPPRA's constant-path-acceleration parametrisation between gridpoints
-(``toppra.ParametrizeConstAccel``): it stays exactly on the spline path and its
+(``toppra.ParametrizeConstAccel``'s, :class:`~motionlib.planning.time_law.TimeLaw`): it stays exactly
+on the spline path and its
 accelerations are those TOPPRA bounded. (TOPPRA's default cubic-spline-in-time
 output can overshoot the acceleration limits by ~10 %.)
 
@@ -43,6 +44,7 @@ from toppra.interpolator import propose_gridpoints
 from ..checks import check_points, check_scalar
 from ..errors import InputError, PlanningError
 from ..model.limits import N_JOINTS, JointAccelerationLimit, JointPositionLimit, JointVelocityLimit, Limit
+from .time_law import TimeLaw
 
 #: Longest duration (s) :func:`time_scale` samples: far beyond any crane motion; a longer timing
 #: (e.g. from near-zero limits) is rejected before millions of samples are made and verified.
@@ -109,6 +111,8 @@ class TimingResult:
     duration_s : float
         Trajectory duration (s); NaN unless OK.
     diagnostics : TimingDiagnostics
+    law : TimeLaw or None
+        The time law ``s(t)`` the samples come from (:mod:`motionlib.planning.time_law`); None unless OK.
     """
 
     status: TimingStatus
@@ -119,6 +123,7 @@ class TimingResult:
     qdd: np.ndarray = field(default_factory=_empty)
     duration_s: float = float("nan")
     diagnostics: TimingDiagnostics = field(default_factory=TimingDiagnostics)
+    law: TimeLaw | None = None
 
     @property
     def ok(self) -> bool:
@@ -236,8 +241,8 @@ def time_scale(
     if not np.all(np.isfinite(sd)):
         return TimingResult(TimingStatus.NUMERICAL_ERROR, "TOPPRA: non-finite path speeds", diagnostics=diag)
 
-    traj = toppra.ParametrizeConstAccel(path, grid, sd)
-    duration = float(traj.duration)
+    law = TimeLaw.from_toppra(path, grid, sd)
+    duration = law.duration_s
     if not (np.isfinite(duration) and duration > 0.0):
         return TimingResult(TimingStatus.NUMERICAL_ERROR, f"TOPPRA: bad duration {duration}", diagnostics=diag)
     if duration > max_duration_s:
@@ -247,9 +252,9 @@ def time_scale(
             diagnostics=diag,
         )
     t = sample_times(duration, dt)
-    q_t, qd_t, qdd_t = traj(t, 0), traj(t, 1), traj(t, 2)
+    q_t, qd_t, qdd_t = law.sample(t)
     diag = TimingDiagnostics(len(grid), t1 - t0, t2 - t1, time.perf_counter() - t2, data.return_code.name)
-    return TimingResult(TimingStatus.OK, "", t, q_t, qd_t, qdd_t, duration, diag)
+    return TimingResult(TimingStatus.OK, "", t, q_t, qd_t, qdd_t, duration, diag, law)
 
 
 def sample_times(duration_s: float, dt: float) -> np.ndarray:

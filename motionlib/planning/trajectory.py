@@ -34,7 +34,9 @@ TRAJECTORY_SCHEMA = "motionlib.trajectory"
 #: 2 added ``path_source``, ``baseline_jointspace_s`` and ``lower_bound_s``; version-1 files read with
 #: those as ``tip-rrt`` (the only source then) and NaN (not computed). 3: plan files are sealed
 #: (:func:`motionlib.fileio.seal_hdf5`; unsealed plan files are refused), the group's content is that of 2.
-TRAJECTORY_VERSION = 3
+#: 4 added ``residual_swing_rad``, ``time_to_settled_s``, ``swing_tolerance_rad``, ``total_jerk`` and
+#: ``swing_shaper``; older files read with NaN (not computed) and ``""``.
+TRAJECTORY_VERSION = 4
 
 
 @dataclass(frozen=True)
@@ -107,6 +109,20 @@ class TrajectoryInfo:
         Per stage (``path``, ``redundancy``, ``timing``, ``verification``).
     limits : dict
         The limits used (``q_min``, ``q_max``, ``qd_min``, ``qd_max``, ``qdd_max``, pump, clearances).
+    residual_swing_rad : float
+        Predicted amplitude (rad) of the grapple's swing left at the end (:mod:`motionlib.planning.swing`);
+        NaN: not computed (files before version 4).
+    time_to_settled_s : float
+        ``duration_s`` plus the passive decay time of that swing to ``swing_tolerance_rad`` (s); NaN: not
+        computed.
+    swing_tolerance_rad : float
+        The swing tolerance (rad) of the plan (``PlanOptions.swing_tolerance_rad``); NaN: not recorded.
+    total_jerk : float
+        Total jerk ``1/2 int |p'''|^2 dt`` (m^2/s^5) of the planned tip motion (000 eq. 6,
+        :mod:`motionlib.planning.smoothness`); NaN: not computed.
+    swing_shaper : str
+        The swing shaping of the time law (:mod:`motionlib.planning.shaping`: ``box``, ``zv``, ``zvd``,
+        ``period``, ``stretch-<kappa>``), ``none`` for the time-optimal law; ``""``: not recorded.
     """
 
     duration_s: float
@@ -129,6 +145,11 @@ class TrajectoryInfo:
     lower_bound_s: float = math.nan
     stages: dict[str, StageReport] = field(default_factory=dict)
     limits: dict[str, Any] = field(default_factory=dict)
+    residual_swing_rad: float = math.nan
+    time_to_settled_s: float = math.nan
+    swing_tolerance_rad: float = math.nan
+    total_jerk: float = math.nan
+    swing_shaper: str = ""
 
     def to_attrs(self) -> dict[str, Any]:
         """Plain values per attribute name (stages as records)."""
@@ -165,7 +186,7 @@ def _convert(name: str, value: Any, where: str) -> Any:
     """One attribute value as the type its :class:`TrajectoryInfo` field declares."""
     label = f"{where}: attribute {name!r}"
     try:
-        if name in ("crane", "crane_digest", "scene", "scene_digest", "profile", "path_source"):
+        if name in ("crane", "crane_digest", "scene", "scene_digest", "profile", "path_source", "swing_shaper"):
             if not isinstance(value, str):
                 raise TypeError("expected a string")
             return value

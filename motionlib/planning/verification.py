@@ -6,13 +6,15 @@ tolerance, :func:`motionlib.model.limits.verify_samples`) and the arm, grapple a
 against the scene with the exact (margin 0) collision checker, at every sample and at
 joint-linear interpolations wherever consecutive samples move the tip more than
 ``tip_spacing_m``. With the grapple rotator (5-joint samples) the checks use the log's actual
-yaw ``q1 + q5`` and the spacing counts the log end's motion from the turn too.
+yaw ``q1 + q5`` and the spacing counts the log end's motion from the turn too. Given a swing
+tolerance, the grapple pendulum (:mod:`motionlib.planning.swing`) is simulated along the samples and
+a residual swing above it is a problem too.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,6 +23,7 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import Limit, PumpFlowLimit, verify_samples
 from ..model.scene import Scene
+from .swing import Pendulum, predict_swing
 from .timing import TimingResult, TimingStatus, time_scale
 
 #: Relative tolerance of the dense limit check: a sample may use up to 1.01 x a limit.
@@ -29,19 +32,22 @@ LIMIT_TOLERANCE = 0.01
 
 @dataclass(frozen=True)
 class VerificationReport:
-    """Problems found by :meth:`Verifier.verify`: one line each, limits and collisions apart."""
+    """Problems found by :meth:`Verifier.verify`: one line each, limits, collisions and swing apart."""
 
     limits: list[str]
     collisions: list[str]
+    swing: list[str] = field(default_factory=list)
+    #: Largest ratio of a sample to a limit among the violations (1.0 when no limit is violated).
+    limit_ratio: float = 1.0
 
     @property
     def ok(self) -> bool:
-        return not (self.limits or self.collisions)
+        return not (self.limits or self.collisions or self.swing)
 
     @property
     def problems(self) -> list[str]:
-        """Collisions first, then limit violations."""
-        return self.collisions + self.limits
+        """Collisions first, then limit violations, then the residual swing."""
+        return self.collisions + self.limits + self.swing
 
 
 class Verifier:
@@ -66,12 +72,19 @@ class Verifier:
         self.tip_spacing_m = tip_spacing_m
         self.checker = CollisionChecker(crane, scene, margin=0.0)
         m = crane.model
+        #: The grapple pendulum of the crane file (empty or loaded) that the swing check simulates.
+        self.pendulum = Pendulum.from_crane(m, loaded)
         #: Farthest hanging point from the grapple's axis (m): a yaw step moves it by this times the step.
         self._yaw_lever = m.log_length / 2 + m.log_diameter / 2 if loaded else m.grapple_radius
 
-    def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> VerificationReport:
-        """Dense re-check of samples ``t`` (N,), ``q``, ``qd``, ``qdd`` (N, 4) (s, rad or m and derivatives)."""
-        limits = [str(v) for v in verify_samples(t, q, qd, qdd, self.limits, tol=LIMIT_TOLERANCE)]
+    def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
+               swing_tolerance_rad: float | None = None) -> VerificationReport:
+        """Dense re-check of samples ``t`` (N,), ``q``, ``qd``, ``qdd`` (N, 4) (s, rad or m and derivatives).
+
+        With ``swing_tolerance_rad``, the predicted residual swing at the end must be within it too.
+        """
+        violations = verify_samples(t, q, qd, qdd, self.limits, tol=LIMIT_TOLERANCE)
+        limits = [str(v) for v in violations]
         q_check = self.densify(q)
         collisions = []
         hits = self.checker.configurations_in_collision(q_check, self.loaded)
@@ -79,7 +92,12 @@ class Verifier:
             first = q_check[np.argmax(hits)]
             d = self.checker.distance(first, self.loaded)
             collisions.append(f"collision of {d.crane_part} with {d.obstacle} at q = {np.round(first, 3).tolist()}")
-        return VerificationReport(limits, collisions)
+        swing = []
+        if swing_tolerance_rad is not None:
+            residual = predict_swing(self.crane, t, q, qd, self.pendulum, swing_tolerance_rad).residual_rad
+            if residual > swing_tolerance_rad:
+                swing.append(f"residual swing {residual:.4f} rad above the tolerance {swing_tolerance_rad} rad")
+        return VerificationReport(limits, collisions, swing, max((v.ratio for v in violations), default=1.0))
 
     def densify(self, q: np.ndarray) -> np.ndarray:
         """``q`` (N, 4) with joint-linear points inserted so that the tip moves at most ``tip_spacing_m`` per step.

@@ -197,8 +197,10 @@ class SimParams:
         file's ``dynamics.joint_inertia``.
     pendulum_length_m : float or None
         Grapple pendulum length (m); None: the crane model's ``grapple_length``.
-    swing_damping_per_s : float
-        Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``. Assumption.
+    swing_damping_per_s : float or None
+        Swing damping ``c`` (1/s): small swings decay as ``exp(-c t / 2)``. None: the crane file's
+        ``dynamics.swing_damping`` (:attr:`~motionlib.model.crane_model.CraneModel.grapple_swing_damping_per_s`,
+        0.4 by assumption when the file gives none), the value the planner's pendulum uses.
     gravity_m_s2 : float
     contact : ContactParams or None
         The grapple's contact with the ground and with the obstacles given to
@@ -222,7 +224,7 @@ class SimParams:
     load_mass_kg: float | None = param(None, ge=0.0, optional=True)
     joint_inertia: tuple[float, float, float, float] | None = None
     pendulum_length_m: float | None = param(None, gt=0.0, optional=True)
-    swing_damping_per_s: float = param(0.4, ge=0.0)
+    swing_damping_per_s: float | None = param(None, ge=0.0, optional=True)
     gravity_m_s2: float = param(GRAVITY_M_S2, gt=0.0)
     contact: ContactParams | None = None
 
@@ -646,6 +648,9 @@ class SimulatedCrane:
         self._rng = np.random.default_rng(int(prm.seed))
         self.payload_frac = float(prm.payload_frac)
         self.length_m = float(prm.pendulum_length_m or crane.model.grapple_length)
+        #: Swing damping ``c`` (1/s) in use: ``SimParams.swing_damping_per_s`` or the crane file's.
+        self.swing_damping_per_s = float(crane.model.grapple_swing_damping_per_s if prm.swing_damping_per_s is None
+                                         else prm.swing_damping_per_s)
         second = prm.model == "second_order"
         model = crane.model
         mass = prm.load_mass_kg if prm.load_mass_kg is not None else model.load_mass
@@ -718,7 +723,7 @@ class SimulatedCrane:
         values = {
             "dt_sub": prm.dt_sub_s, "tau": j.tau, "second_order": j.second_order,
             "pump_flow": j.pump_flow, "length": self.length_m, "gravity": prm.gravity_m_s2,
-            "swing_damping": prm.swing_damping_per_s, "mass": self._mass, "react": react,
+            "swing_damping": self.swing_damping_per_s, "mass": self._mass, "react": react,
             "contact_k": contact.stiffness_n_m if contact else 0.0,
             "contact_c": contact.damping_n_s_m if contact else 0.0,
             "friction": contact.friction if contact else 0.0, "load": 0.0, "noise": prm.noise_frac,

@@ -133,6 +133,50 @@ def _sha(path: Path) -> str:
 
 
 # ---------------------------------------------------------------- round trip
+def test_swing_fields_round_trip_and_rank_the_time_utility(tmp_path):
+    """The index stores each plan's residual swing, time to settled and total jerk; selection's time utility
+    ranks by the time to settled, and a trajectory without them (NaN) counts with its duration."""
+    import dataclasses
+
+    crane, scene = Crane.load("lab"), Scene.load(LAB_SCENE)
+    q1 = np.array([0.4, 0.6, -1.3, 0.5])
+    trajs = [synthetic_trajectory(crane, STARTS[0], q1, d) for d in (6.0, 7.0, 8.0)]
+    swing = [(0.2, 12.0, 30.0), (0.01, 7.0, 5.0), (float("nan"),) * 3]  # fastest arrives last; NaN: not computed
+    path = tmp_path / "swing.h5"
+    with LibraryWriter(path, "swing", crane, scene, {"name": "swing"}, {"by": "test"}) as w:
+        for i, (traj, (res, settled, jerk)) in enumerate(zip(trajs, swing, strict=True)):
+            info = dataclasses.replace(traj.info, residual_swing_rad=res, time_to_settled_s=settled, total_jerk=jerk)
+            traj = dataclasses.replace(traj, info=info)
+            w.add(_record(i, STARTS[0], traj.path_tip[-1], True), IndexRow.from_trajectory(traj, crane, STARTS[0]),
+                  traj)
+    lib = Library.open(path)
+    np.testing.assert_array_equal(lib.residual_swing_rad, [0.2, 0.01, np.nan])
+    np.testing.assert_array_equal(lib.time_to_settled_s, [12.0, 7.0, np.nan])
+    np.testing.assert_array_equal(lib.total_jerk, [30.0, 5.0, np.nan])
+    assert lib.trajectory(1).info.time_to_settled_s == 7.0
+    # all three end at the same point: settled after 12, 7 and (duration) 8 s
+    ranked = lib.select(trajs[0].path_tip[-1], STARTS[0], max_candidates=3)
+    assert [c.index for c in ranked.candidates] == [1, 2, 0]
+    assert ranked.candidates[0].score == -7.0 and ranked.candidates[1].score == -trajs[2].info.duration_s
+
+
+def test_version_2_library_reads_the_swing_fields_as_nan(synthetic, tmp_path):
+    """A library written before the index had the swing fields (version 2) opens with them NaN (not computed),
+    and the time utility then ranks by the durations."""
+    src, _ = synthetic
+    old = tmp_path / "v2.h5"
+    shutil.copy(src, old)
+    with h5py.File(old, "r+") as f:
+        for key in ("residual_swing_rad", "time_to_settled_s", "total_jerk"):
+            del f[f"index/{key}"]
+        f.attrs["schema_version"] = 2
+    seal_hdf5(old)
+    lib = Library.open(old)
+    assert lib.schema_version == 2 and len(lib) == len(Library.open(src))
+    assert np.all(np.isnan(lib.time_to_settled_s)) and np.all(np.isnan(lib.total_jerk))
+    np.testing.assert_array_equal(lib.index.time_to_settled_s, lib.duration_s)
+
+
 def test_round_trip(synthetic):
     path, written = synthetic
     lib = Library.open(path)
@@ -159,7 +203,7 @@ def test_layout_is_plain_hdf5(synthetic):
     path, written = synthetic
     crane = Crane.load("lab")
     with h5py.File(path, "r") as f:
-        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 2
+        assert f.attrs["schema"] == "motionlib.library" and f.attrs["schema_version"] == 3
         assert json.loads(f.attrs["crane_model"][5:]) == json.loads(json.dumps(crane.model.to_dict()))
         assert json.loads(f.attrs["scene_model"][5:])["name"] == "log-loading"
         assert f.attrs["crane_digest"] == crane.model.digest
@@ -377,7 +421,7 @@ def _other_schema(src: Path, dst: Path) -> None:
 def _newer(src: Path, dst: Path) -> None:
     shutil.copy(src, dst)
     with h5py.File(dst, "r+") as f:
-        f.attrs["schema_version"] = 3
+        f.attrs["schema_version"] = 4
     seal_hdf5(dst)
 
 
@@ -405,7 +449,7 @@ BAD_FILES = [
     (_unsealed_hdf5, r"an HDF5 file without motionlib's seal .*rebuild the library"),
     (_other_format, r"a motionlib.trajectory file, expected motionlib.library"),
     (_other_schema, r"not a motionlib library \(schema 'motionlib.trajectory'"),
-    (_newer, r"schema version 3 is newer than this motionlib reads \(2\)"),
+    (_newer, r"schema version 4 is newer than this motionlib reads \(3\)"),
     (_missing_index, r"/index/end_p is missing"),
     (_edited_not_resealed, r"does not match the SHA-256 of its seal"),
 ]

@@ -29,8 +29,9 @@ def test_feed_forward_integrates_to_the_trajectory_displacement(setting):
     ff = feed_forward(traj, o)
     assert np.allclose(ff.u.sum(axis=0) * ff.dt_s, traj.q[-1] - traj.q[0], atol=1e-9)
     assert ff.t[-1] == pytest.approx(traj.duration_s / 0.8, abs=o.dt_s)
-    # slowed by speed_scale: never faster than 0.8 x the trajectory's peak speed (+ the last partial period)
-    assert np.all(np.abs(ff.u[:-1]).max(axis=0) <= 0.8 * np.abs(traj.qd).max(axis=0) + 1e-6)
+    # slowed by speed_scale: never faster than 0.8 x the trajectory's peak speed (+ the last partial period);
+    # a smooth (swing-shaped) velocity peaks between the 200 Hz samples by up to ~|q'''| dt^2 / 8 (~1e-6)
+    assert np.all(np.abs(ff.u[:-1]).max(axis=0) <= 0.8 * np.abs(traj.qd).max(axis=0) + 1e-5)
 
 
 def test_calibrated_machine_ends_at_the_goal_open_loop(setting):

@@ -357,12 +357,25 @@ def _good_arrays():
         {"duration_s": [6.5, 6.5]},  # last approach time is not the duration
         {"end_p": [[5.0, 0.1, 1.5]] * 2},  # last approach point is not the end point
         {"start_weights": (1.0, 1.0, 0.0, 1.0)},
+        {"time_to_settled_s": [5.0, 7.0]},  # settled before the motion ends
+        {"time_to_settled_s": [np.inf, 7.0]},
+        {"time_to_settled_s": [7.0]},
         {"start_q": np.empty((0, 4)), "end_p": np.empty((0, 3))},
     ],
 )
 def test_index_rejects_bad_arrays(change):
     with pytest.raises(InputError):
         SelectionIndex(**(_good_arrays() | change))
+
+
+def test_time_utility_ranks_by_time_to_settled_and_falls_back_to_duration():
+    """Two equal durations: the one that settles first wins; NaN (an older library) counts as the duration."""
+    arrays = _good_arrays()
+    for settled, best in (([9.0, 7.5], 1), ([np.nan, 7.5], 0), (None, 0)):
+        result = SelectionIndex(**arrays, time_to_settled_s=settled).select([5.0, 0.0, 1.5])
+        assert result.indices[0] == best
+        expected = [6.0 if settled is None or np.isnan(v) else v for v in (settled or [np.nan, np.nan])]
+        assert sorted(-result.scores) == sorted(expected)
 
 
 def test_robust_needs_approach_data():

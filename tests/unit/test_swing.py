@@ -1,0 +1,162 @@
+"""The grapple pendulum of planning (motionlib.planning.swing) and the shaped time laws (time_law, shaping).
+
+References: closed forms of the linear pendulum (a constant-acceleration pulse, the free damped swing, the
+zero-vibration shaper), TOPPRA's own constant-acceleration parametrisation, and properties of the shaped law
+checked on dense samples (hypothesis).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import toppra
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motionlib.errors import InputError
+from motionlib.model.kinematics import Crane
+from motionlib.planning.shaping import Shaper, shapers
+from motionlib.planning.swing import Pendulum, swing_response
+from motionlib.planning.time_law import TimeLaw
+
+G = 9.81
+DT = 0.005
+
+
+def _pulse_velocity(t: np.ndarray, a: float, tau: float) -> np.ndarray:
+    """Tip velocity (N, 2) of a constant acceleration ``a`` along x for ``tau`` seconds from rest."""
+    return np.column_stack([a * np.clip(t, 0.0, tau), np.zeros_like(t)])
+
+
+@pytest.mark.parametrize("tau", [0.3, 0.6, 1.1])
+def test_pulse_residual_matches_the_undamped_closed_form(tau):
+    """A constant acceleration pulse of length tau leaves (a/g) |2 sin(omega tau / 2)| of swing (undamped)."""
+    pend = Pendulum(0.55, 0.0)
+    a = 1.5
+    t = np.arange(0.0, 4.0 + DT / 2, DT)
+    theta, rate = swing_response(t, _pulse_velocity(t, a, tau), pend)
+    expected = a / G * abs(2.0 * math.sin(pend.omega_n * tau / 2.0))
+    assert np.hypot(*pend.amplitude(theta[-1], rate[-1])) == pytest.approx(expected, rel=1e-6)
+    # during the pulse the swing is the step response -(a/g)(1 - cos(omega t)) behind the tip
+    inside = t <= tau
+    np.testing.assert_allclose(theta[inside, 0], -a / G * (1.0 - np.cos(pend.omega_n * t[inside])), atol=1e-7)
+    assert np.all(theta[:, 1] == 0.0)
+
+
+def test_damped_free_swing_amplitude_is_the_closed_form_envelope():
+    """After a pulse the amplitude measure decays as exp(-c t / 2) and does not read zero at a zero crossing."""
+    pend = Pendulum(0.55, 0.4)
+    t = np.arange(0.0, 8.0 + DT / 2, DT)
+    theta, rate = swing_response(t, _pulse_velocity(t, 2.0, 0.4), pend)
+    amp = pend.amplitude(theta[:, 0], rate[:, 0])
+    after = t >= 1.0
+    np.testing.assert_allclose(amp[after], amp[after][0] * np.exp(-pend.decay_per_s * (t[after] - 1.0)), rtol=1e-6)
+    crossing = np.flatnonzero(np.diff(np.sign(theta[after, 0])))[0]
+    assert abs(theta[after, 0][crossing]) < 0.2 * amp[after][crossing]  # theta near zero, the swing is not
+
+
+def test_zv_shaped_pulse_leaves_no_swing():
+    """Singer & Seering's ZV shaper applied to a pulse cancels the damped swing (to the discretisation)."""
+    pend = Pendulum(1.1, 0.4)
+    zv = next(s for s in shapers(pend, 0.1, 1.0) if s.name == "zv")
+    t = np.arange(0.0, 6.0 + DT / 2, DT)
+    v = sum(w * _pulse_velocity(t - d, 1.5, 0.6) * (t >= d)[:, None] for d, w in zv.impulses)
+    theta, rate = swing_response(t, v, pend)
+    unshaped = swing_response(t, _pulse_velocity(t, 1.5, 0.6), pend)
+    assert np.hypot(*pend.amplitude(theta[-1], rate[-1])) < 1e-4 * np.hypot(*pend.amplitude(*(u[-1] for u in unshaped)))
+    (d0, w0), (d1, w1) = zv.impulses
+    k = math.exp(-pend.damping_ratio * math.pi / math.sqrt(1 - pend.damping_ratio**2))
+    assert (d0, d1) == (0.0, pytest.approx(pend.period_s / 2)) and w1 / w0 == pytest.approx(k)
+
+
+def test_settle_time_is_the_passive_decay_to_the_tolerance():
+    pend = Pendulum(0.55, 0.4)
+    assert pend.settle_time_s(0.02, 0.03) == 0.0
+    extra = pend.settle_time_s(0.3, 0.03)
+    assert 0.3 * math.exp(-0.2 * extra) == pytest.approx(0.03)
+    assert Pendulum(0.55, 0.0).settle_time_s(0.3, 0.03) == math.inf
+
+
+def test_pendulum_from_the_crane_file_and_its_checks():
+    lab = Crane.load("lab")
+    pend = Pendulum.from_crane(lab.model, loaded=True)
+    assert pend.length_m == lab.model.grapple_length == 0.55
+    assert pend.damping_per_s == lab.model.swing_damping == 0.4
+    assert 2 * math.pi * math.sqrt(0.55 / G) == pytest.approx(1.488, abs=1e-3)
+    with pytest.raises(InputError):
+        Pendulum(0.55, 20.0)  # overdamped: no swing to shape
+
+
+def _straight_law(speeds: list[float], length: float = 2.0) -> TimeLaw:
+    """A time law along a straight 2-joint path over [0, length] with path speeds ``speeds`` at rest at the ends."""
+    grid = np.linspace(0.0, length, len(speeds) + 2)
+    sd = np.concatenate([[0.0], speeds, [0.0]])
+    path = toppra.SplineInterpolator(grid, np.column_stack([grid, 0.5 * grid]))
+    return TimeLaw.from_toppra(path, grid, sd)
+
+
+def test_base_law_reproduces_toppra_constant_acceleration_samples():
+    """TimeLaw's samples are toppra.ParametrizeConstAccel's (the independent implementation)."""
+    law = _straight_law([0.4, 0.9, 1.2, 0.7, 0.3])
+    grid = np.linspace(0.0, 2.0, 7)
+    ref = toppra.ParametrizeConstAccel(law.path, grid, np.array([0.0, 0.4, 0.9, 1.2, 0.7, 0.3, 0.0]))
+    assert law.duration_s == pytest.approx(ref.duration, rel=1e-12)
+    t = np.linspace(0.0, law.duration_s * (1 - 1e-9), 157)
+    for order, got in enumerate(law.sample(t)):
+        np.testing.assert_allclose(got, ref(t, order), atol=1e-9)
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    speeds=st.lists(st.floats(0.05, 2.0), min_size=2, max_size=8),
+    weights=st.lists(st.floats(0.05, 1.0), min_size=1, max_size=3),
+    delays=st.lists(st.floats(0.0, 1.5), min_size=3, max_size=3),
+    box=st.one_of(st.just(0.0), st.floats(0.001, 0.5)),
+    stretch=st.floats(1.0, 1.6),
+)
+def test_shaping_keeps_the_ends_monotone_s_and_adds_the_shaper_length(speeds, weights, delays, box, stretch):
+    law = _straight_law(speeds)
+    w = np.array(weights) / sum(weights)
+    impulses = tuple((0.0 if k == 0 else delays[k], float(w[k])) for k in range(len(w)))
+    impulses = impulses[:-1] + ((impulses[-1][0], 1.0 - float(sum(w[:-1]))),)
+    shaped = law.shaped(impulses, box, stretch)
+    assert shaped.duration_s == pytest.approx(stretch * law.duration_s + box + max(d for d, _ in impulses))
+    t = np.linspace(-0.5, shaped.duration_s + 0.5, 2001)
+    s = shaped.evaluate(t, 0)
+    assert np.all(np.diff(s) >= -1e-9)  # monotone: the tip never runs back along the path
+    before, after = t <= 0.0, t >= shaped.duration_s
+    np.testing.assert_allclose(s[before], 0.0, atol=1e-9)
+    np.testing.assert_allclose(s[after], 2.0, atol=1e-9)
+    np.testing.assert_allclose(shaped.evaluate(t[before | after], 1), 0.0, atol=1e-9)  # at rest at both ends
+    # the derivatives are those of s (finite differences of the exact law)
+    h = 1e-5
+    tm = np.linspace(0.01, shaped.duration_s - 0.01, 50)
+    fd = (shaped.evaluate(tm + h, 0) - shaped.evaluate(tm - h, 0)) / (2 * h)
+    np.testing.assert_allclose(shaped.evaluate(tm, 1), fd, atol=1e-4)
+
+
+def test_box_bounds_the_path_jerk():
+    """With a box of T_b the path acceleration changes by at most (max s_dd - min s_dd) per T_b."""
+    law = _straight_law([0.5, 1.5, 1.5, 0.5])
+    shaped = law.shaped(box_s=0.2)
+    t = np.linspace(0.0, shaped.duration_s, 20001)
+    sdd = shaped.evaluate(t, 2)
+    base = law.evaluate(np.linspace(0.0, law.duration_s, 20001), 2)
+    jerk = np.abs(np.diff(sdd) / np.diff(t))
+    assert jerk.max() <= (base.max() - base.min()) / 0.2 * 1.001
+
+
+def test_shaping_rejects_a_law_not_at_rest_and_bad_shapers():
+    law = _straight_law([0.5, 1.0])
+    with pytest.raises(InputError):
+        law.shaped(((0.0, 0.7), (0.5, 0.2)))  # weights do not sum to 1
+    with pytest.raises(InputError):
+        law.shaped(stretch=0.9)
+    with pytest.raises(InputError):
+        law.shaped(box_s=1e-6)  # too short to evaluate without losing digits
+    moving = TimeLaw.from_toppra(law.path, np.linspace(0.0, 2.0, 3), np.array([0.0, 1.0, 0.5]))
+    with pytest.raises(InputError, match="rest"):
+        moving.shaped(box_s=0.1)
+    assert Shaper("zv", ((0.0, 0.5), (0.7, 0.5)), 0.1).added_s(3.0) == pytest.approx(0.8)
