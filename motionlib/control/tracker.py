@@ -79,12 +79,12 @@ from ..checks import check_params, check_scalar, param
 from ..errors import InputError
 from ..model.kinematics import Crane
 from ..planning.spline import TipSpline
+from ..planning.swing import Pendulum, swing_response, tip_velocity
 from ..planning.trajectory import Trajectory
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
 
-_FD_EPS = 1e-6  # directional finite-difference step (s) for tip speeds of the trajectory samples
 
 TABLE_COLUMNS: tuple[str, ...] = ("px", "py", "pz", "v2", "q1", "q2", "q3", "q4",
                                   "dq1_ds", "dq2_ds", "dq3_ds", "dq4_ds", "t", "rx", "ry")
@@ -343,7 +343,8 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     dict
         ``s`` (n,) m; ``p`` (n, 3) m, path points ``q(s)``; ``v`` (n,) m/s, planned tip speed;
         ``q`` (n, 4) planned configuration; ``dq_ds`` (n, 4) its derivative over arc length; ``t`` (n,) s,
-        the planned time at which the tip passes ``s`` (nondecreasing).
+        the planned time at which the tip passes ``s`` (nondecreasing); ``r`` (n, 2) m, the grapple's
+        planned horizontal offset from the tip there (base x, y; :func:`motionlib.planning.swing.swing_response`).
     """
     step_m = check_scalar(step_m, "step_m", gt=0.0)
     length = spline.length
@@ -356,8 +357,8 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     s_k = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tip, axis=0), axis=1))])
     if s_k[-1] > 0.0:
         s_k *= length / s_k[-1]
-    v_k = np.linalg.norm(crane.fk_batch(q_k + _FD_EPS * qd_k) - crane.fk_batch(q_k - _FD_EPS * qd_k), axis=1)
-    v_k /= 2.0 * _FD_EPS
+    v_tip = tip_velocity(crane, q_k, qd_k)
+    v_k = np.linalg.norm(v_tip, axis=1)
     # samples where the tip has not moved yet (rest at the ends) share an s: keep the last of each run
     keep = np.concatenate([np.diff(s_k) > 1e-12, [True]])
     s_u, v_u, q_u, t_u = s_k[keep], v_k[keep], q_k[keep], np.asarray(trajectory.t, dtype=np.float64)[keep]
@@ -368,23 +369,11 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     q = np.column_stack([np.interp(s, s_u, q_u[:, j]) for j in range(4)])
     dq_ds = np.gradient(q, s, axis=0)
     t = np.interp(s, s_u, t_u)  # s = 0: the last sample at rest, when the plan's tip leaves
-    r_k = _predicted_swing(trajectory.t, tip, crane.model.grapple_length)
-    r = np.column_stack([np.interp(s, s_u, r_k[keep, j]) for j in range(2)])
+    # the planned swing as the grapple's horizontal offset from the tip, L theta (small angles)
+    pendulum = Pendulum.from_crane(crane.model)
+    theta, _ = swing_response(trajectory.t, v_tip[:, :2], pendulum)
+    r = np.column_stack([np.interp(s, s_u, pendulum.length_m * theta[keep, j]) for j in range(2)])
     return {"s": s, "p": p, "v": v, "q": q, "dq_ds": dq_ds, "t": t, "r": r}
-
-
-def _predicted_swing(t, tip, length):
-    from scipy.signal import lsim
-    dt = 0.005
-    tu = np.arange(0.0, t[-1] + dt, dt)
-    pu = np.column_stack([np.interp(tu, t, tip[:, j]) for j in range(2)])
-    a = np.gradient(np.gradient(pu, dt, axis=0), dt, axis=0)
-    w2 = 9.81 / length
-    out = []
-    for j in range(2):
-        _, y, _ = lsim(([-1.0], [1.0, 0.4, w2]), a[:, j], tu)
-        out.append(np.interp(t, tu, y))
-    return np.column_stack(out)
 
 
 @njit(cache=True)

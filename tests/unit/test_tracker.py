@@ -9,12 +9,14 @@ import math
 
 import numpy as np
 import pytest
+from scipy.integrate import solve_ivp
 
 from motionlib.control.tracker import TABLE_COLUMNS, TRACKER_STATE, PathTracker, TrackerParams
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
 from motionlib.planning.spline import TipSpline
+from motionlib.planning.swing import Pendulum
 
 SCENE = "obstacles/log-loading.yaml"
 PATH = TrackerParams(timing="path")
@@ -212,3 +214,36 @@ def test_the_plans_clock_waits_for_a_held_tip(planned):
     held = run[run[:, 0] < 2.0]
     assert held[-1, 2] == pytest.approx(t_col[0] + prm.lead_s, abs=1e-9)  # waiting, not 2 s ahead
     assert run[-1, 0] < 2.0 + traj.duration_s + 1.0 and tracker.arrived(0.0)
+
+
+def test_swing_reference_is_the_pendulum_driven_by_the_plan(planned):
+    """The planned swing against an independent integration of the linearised pendulum (scipy solve_ivp,
+    driven by the tip acceleration of the plan's samples by finite differences); none after the plan."""
+    crane, traj = planned
+    tracker = PathTracker(traj, crane)
+    pend = Pendulum.from_crane(crane.model)
+    tip = crane.fk_batch(traj.q)
+    acc = np.gradient(np.gradient(tip[:, :2], traj.t, axis=0), traj.t, axis=0)
+
+    def rhs(t, x):
+        a = [np.interp(t, traj.t, acc[:, j]) for j in range(2)]
+        w2, c = pend.gravity_m_s2 / pend.length_m, pend.damping_per_s
+        return [x[2], x[3], -w2 * x[0] - c * x[2] - a[0], -w2 * x[1] - c * x[3] - a[1]]
+
+    sol = solve_ivp(rhs, (0.0, traj.t[-1]), [0.0, 0.0, 0.0, 0.0], t_eval=traj.t, max_step=0.005, rtol=1e-8)
+    ref = sol.y[:2].T  # the grapple's offset from the tip (m)
+    t_ref, t_last = TRACKER_STATE.index("t_ref"), TRACKER_STATE.index("t_last")
+
+    def reference_at(t: float, k: int) -> tuple[float, float]:
+        """The reference after one control step of 5 ms onto plan time ``t``, the tip on the plan's sample ``k``."""
+        tracker.state[t_ref], tracker.state[t_last] = t - 0.005, 0.0
+        tracker.update(tuple(tip[k]), tuple(traj.q[k].tolist()), 0.0, 0.005)
+        return tracker.swing_reference_m
+
+    got = np.array([reference_at(t, k) for k, t in list(enumerate(traj.t))[20:-1:20]])
+    assert np.abs(ref).max() > 0.05  # the plan does swing the grapple
+    assert np.abs(got - ref[20:-1:20]).max() < 0.03 * np.abs(ref).max()
+    assert reference_at(traj.t[-1] + 0.1, len(traj.t) - 1) == (0.0, 0.0)
+    tracker.state[t_ref], tracker.state[t_last] = 1.0, math.nan  # the clock stands (first update): no reference
+    tracker.update(tuple(tip[200]), tuple(traj.q[200].tolist()), 0.0, 0.0)
+    assert tracker.swing_reference_m == (0.0, 0.0)
