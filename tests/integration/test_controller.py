@@ -315,10 +315,8 @@ def planned_back(planned):
 @pytest.mark.parametrize("timing", ["path", "time"])
 @pytest.mark.parametrize("which", ["planned", "planned_back"])
 def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing, request):
-    """On the first-order plant without a load, both speed laws keep the path and the plan's clock, lagging it by
-    the actuators' ~40 ms. "path" reads the plan's speed where the tip is and arrives with the plan; "time" runs the
-    plan's clock and ends the last few cm (the lag) on the capped position gain (docs/runtime.md): later, by at
-    most 0.8 s here."""
+    """On the first-order plant without a load, both speed laws keep the path of the (swing-shaped) plan and arrive
+    about when it ends; "time" also keeps its clock (docs/runtime.md, "Path tracker")."""
     crane, _, traj = request.getfixturevalue(which)
     ctl = SharedController(crane, "M6", NO_SWING_DAMPING, tracker_params=TrackerParams(timing=timing))
     ctl.start_motion(traj)
@@ -335,17 +333,18 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing,
     if timing == "path":
         assert arrival[0] == pytest.approx(traj.duration_s, rel=0.05)
     else:
-        assert traj.duration_s < arrival[0] < traj.duration_s + 0.8
+        assert traj.duration_s - 0.1 < arrival[0] < traj.duration_s + 0.5
     spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
     assert path_deviation(arr["tip_p"], spline).max() < 0.02
     assert np.linalg.norm(arr["tip_p"][-1] - crane.fk(traj.q[-1])) < 0.01
     # time-aligned, the tip stays within a few cm of the plan's tip at the same moment (lag: ~0.04 s)
     plan_tip = crane.fk_batch(traj.q)
+    # "time" keeps the plan's clock: within 3 cm of the plan's tip at the same moment (measured 2.0-2.2 cm);
+    # "path" runs ahead of a swing-shaped plan's clock (its speed floor and preview on the shaper's slow
+    # plateaus: measured 5-7 cm), which is why "time" is the default
     n = min(len(arr["t"]), len(traj.t))
-    k = np.arange(n)
-    assert np.linalg.norm(arr["tip_p"][:n] - plan_tip[k], axis=1).max() < 0.07
-    lagged = np.maximum(k - 8, 0)  # 40 ms later
-    assert np.linalg.norm(arr["tip_p"][:n] - plan_tip[lagged], axis=1).max() < (0.015 if timing == "path" else 0.06)
+    gap = np.linalg.norm(arr["tip_p"][:n] - plan_tip[:n], axis=1).max()
+    assert gap < (0.03 if timing == "time" else 0.08)
     assert res.diagnostics["hard_stop_hits"] == 0
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 
@@ -368,7 +367,7 @@ def test_planned_motion_settles_on_the_hydraulic_plant_with_the_swinging_load(wh
     undamped, _ = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams())
     assert res.settled and res.cycle_time_s < 2.0 * traj.duration_s
     assert [e.name for e in res.log.events] == ["motion_start", "arrival"]
-    assert undamped.settled and undamped.cycle_time_s > res.cycle_time_s + 2.0
+    assert undamped.settled and undamped.cycle_time_s > res.cycle_time_s + 0.5  # measured: 1.6 s later
     assert res.diagnostics["hard_stop_hits"] == 0
 
 
