@@ -1,6 +1,6 @@
 """Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
 
-Run: ``python benchmarks/executed.py [--library PATH] [--rows N] [--no-swing-settle]
+Run: ``python benchmarks/executed.py [--library PATH] [--rows 20] [--baseline] [--no-swing-settle]
 [--no-swing-damping]``
 
 The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):
@@ -16,6 +16,12 @@ planned duration, the settle (cycle) time, their ratio (``RunSummary.settle_rati
 past the end point along the final direction (``RunSummary.overshoot_m``), the residual swing at
 the settle time and whether the run settled. Then the median and max ratio and the max overshoot
 against the issue's targets: ratio median <= 1.15, max <= 1.35; overshoot <= 0.05 m.
+
+``--baseline`` runs each row's path again as the pipeline had it before issue 22: the time-optimal plan of
+the same path (:meth:`Planner.plan_along` with ``PlanOptions(swing_shaping=False)``) executed by the tracker's
+speed law of 000 section 2.3 (``TrackerParams(timing="path")``) with the swing damping without its dead band,
+and prints its planned and settle times and the ratio of the two settle times (this run's / the baseline's):
+how much sooner a motion is done, measured in one process.
 
 ``--no-swing-settle`` adds the old definition for comparison (``settle_swing_rad`` = 10 rad: the
 swing never holds a run up, the tip alone decides): its settle time, ratio and residual swing per row.
@@ -33,8 +39,13 @@ from pathlib import Path
 
 import numpy as np
 
-from motionlib import ExecuteOptions, Library, execute
+from motionlib import ExecuteOptions, Library, PlanOptions, execute
 from motionlib.control.control_types import ControllerParams
+from motionlib.control.tracker import TrackerParams
+from motionlib.planning.planner import Planner
+from motionlib.planning.redundancy import TelescopeProfile
+from motionlib.planning.spline import TipSpline
+from motionlib.planning.trajectory import Trajectory
 from motionlib.sim.loop import LoopOptions
 
 #: The issue's targets: settle ratio median and max, overshoot (m).
@@ -61,16 +72,27 @@ def spread_rows(n_rows: int, n: int) -> np.ndarray:
     return np.unique(np.round(np.linspace(0, n_rows - 1, min(n, n_rows))).astype(int))
 
 
-def run_row(lib: Library, row: int, settle_swing_rad: float, controller: ControllerParams) -> Outcome:
-    """Execute library row ``row`` in M6 with the passive operator; its measures."""
+def run_row(lib: Library, row: int, settle_swing_rad: float, controller: ControllerParams,
+            tracker: TrackerParams | None = None, traj: Trajectory | None = None) -> Outcome:
+    """Execute library row ``row`` (or ``traj`` in its place) in M6 with the passive operator; its measures."""
     loop = LoopOptions(settle_swing_rad=settle_swing_rad)
-    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive",
-                  options=ExecuteOptions(seed=0, time_limit_s=TIME_LIMIT_S, loop=loop, controller=controller))
+    run = execute(lib.trajectory(row) if traj is None else traj, lib.crane, lib.scene, mode="M6", operator="passive",
+                  options=ExecuteOptions(seed=0, time_limit_s=TIME_LIMIT_S, loop=loop, controller=controller,
+                                         tracker=tracker or TrackerParams()))
     s = run.summary
     if s.planned_duration_s is None or s.settle_ratio is None or s.overshoot_m is None:
         raise RuntimeError("a library row's run has a trajectory, so its summary has these")
     return Outcome(s.planned_duration_s, s.cycle_time_s, s.settle_ratio, s.overshoot_m, s.residual_swing_rad,
                    run.settled)
+
+
+def time_optimal(lib: Library, row: int) -> Trajectory:
+    """Row ``row``'s path timed without the swing shaping (the time-optimal plan of the same path)."""
+    traj = lib.trajectory(row)
+    planner = Planner(lib.crane, lib.scene, PlanOptions(loaded=traj.info.loaded, swing_shaping=False))
+    spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
+    telescope = TelescopeProfile(traj.telescope_control_points, spline.length)
+    return planner.plan_along(traj.q[0], spline, telescope).raise_for_status().trajectory
 
 
 def _verdict(value: float, target: float) -> str:
@@ -81,6 +103,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--library", type=Path, default=Path("libraries/log-loading.h5"), help="motion library")
     parser.add_argument("--rows", type=int, default=20, help="rows to run, evenly spaced over the library (>= 1)")
+    parser.add_argument("--baseline", action="store_true",
+                        help="also run each row's path time-optimally with the tracker and damping before issue 22")
     parser.add_argument("--no-swing-settle", action="store_true",
                         help="also run each row with the old settle definition (tip speed only) for comparison")
     parser.add_argument("--no-swing-damping", action="store_true", help="the controller without its swing damping")
@@ -98,17 +122,24 @@ def main() -> None:
           f"{TARGET_RATIO_MAX}, overshoot <= {TARGET_OVERSHOOT_M} m")
     header = (f"{'row':>5} {'planned s':>9} {'settle s':>8} {'ratio':>6} {'overshoot m':>11} {'swing rad':>9} "
               f"{'settled':>7}")
+    if args.baseline:
+        header += f" | {'base planned s':>14} {'base settle s':>13} {'settle / base':>13}"
     if args.no_swing_settle:
         header += f" | {'tip-only s':>10} {'ratio':>6} {'swing rad':>9} {'settled':>7}"
     print(header)
     print("-" * len(header))
-    new, old = [], []
+    new, old, base = [], [], []
+    before = ControllerParams(swing_damping=controller.swing_damping, swing_damping_deadband_rad=0.0)
     t0 = time.perf_counter()
     for row in rows.tolist():
         o = run_row(lib, row, swing_tol, controller)
         new.append(o)
         line = (f"{row:5d} {o.planned_s:9.2f} {o.settle_s:8.2f} {o.ratio:6.2f} {o.overshoot_m:11.3f} "
                 f"{o.swing_rad:9.3f} {'yes' if o.settled else 'NO':>7}")
+        if args.baseline:
+            b = run_row(lib, row, swing_tol, before, TrackerParams(timing="path"), time_optimal(lib, row))
+            base.append(b)
+            line += f" | {b.planned_s:14.2f} {b.settle_s:13.2f} {o.settle_s / b.settle_s:13.2f}"
         if args.no_swing_settle:
             b = run_row(lib, row, NO_SWING_RAD, controller)
             old.append(b)
@@ -118,6 +149,14 @@ def main() -> None:
     _print_totals("swing-settled", new)
     if old:
         _print_totals("tip-only (old)", old)
+    if base:
+        _print_totals("baseline (before issue 22)", base)
+        settle, settle_b = np.array([o.settle_s for o in new]), np.array([b.settle_s for b in base])
+        planned, planned_b = np.array([o.planned_s for o in new]), np.array([b.planned_s for b in base])
+        gain, cost = settle / settle_b, planned / planned_b
+        print(f"settle time median {np.median(settle):.2f} s vs baseline {np.median(settle_b):.2f} s; per row "
+              f"settle / baseline median {np.median(gain):.2f} (max {np.max(gain):.2f}); "
+              f"planned / time-optimal median {np.median(cost):.2f} (max {np.max(cost):.2f})")
     print(f"({time.perf_counter() - t0:.0f} s wall)")
 
 
