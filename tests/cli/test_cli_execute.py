@@ -79,8 +79,9 @@ def test_passive_m6_json_summary_and_run_log(library, tmp_path: Path):
 
 
 def test_no_swing_damping_keeps_the_tip_on_the_path(library):
-    """``--no-swing-damping``: the tip stays within a few cm of the path (the bound before the swing
-    damping existed) and the grapple swings at least as much as with the damping."""
+    """``--no-swing-damping``: the tip stays within a few cm of the path; with the damping the tip keeps to the path
+    as well and the peak swing is the same (it damps only the swing the swing-shaped plan does not foresee,
+    instead of dragging the tip after the grapple), and the run settles no later."""
     path, ends = library
     target = ",".join(map(str, ends[0]))
     runs = {}
@@ -89,8 +90,9 @@ def test_no_swing_damping_keeps_the_tip_on_the_path(library):
         assert code == 0, out
         runs[bool(flag)] = json.loads(out)
     assert runs[True]["settled"] and runs[True]["max_deviation_m"] < 0.1
-    assert runs[True]["peak_swing_rad"] >= runs[False]["peak_swing_rad"]
-    assert runs[True]["max_deviation_m"] < runs[False]["max_deviation_m"]
+    assert runs[True]["peak_swing_rad"] == pytest.approx(runs[False]["peak_swing_rad"], rel=0.05)
+    assert runs[False]["settled"] and runs[False]["max_deviation_m"] < 0.1
+    assert runs[False]["cycle_time_s"] <= runs[True]["cycle_time_s"]
 
 
 def test_novice_in_m6_with_plots_and_text_output(library, tmp_path: Path):

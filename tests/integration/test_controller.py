@@ -318,7 +318,9 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing,
     """On the first-order plant without a load, both speed laws keep the path of the (swing-shaped) plan and arrive
     about when it ends; "time" also keeps its clock (docs/runtime.md, "Path tracker")."""
     crane, _, traj = request.getfixturevalue(which)
-    ctl = SharedController(crane, "M6", NO_SWING_DAMPING, tracker_params=TrackerParams(timing=timing))
+    # the time law's preview set to this plant's only lag, the valve's 40 ms (the default is the hydraulic plant's)
+    tracker = TrackerParams(timing=timing, time_preview_s=KINEMATIC_PLANT.tau_s)
+    ctl = SharedController(crane, "M6", NO_SWING_DAMPING, tracker_params=tracker)
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], KINEMATIC_PLANT)
     # the tip's tracking is measured here, so the run ends at the tip's rest (the swing is left out of the
@@ -402,7 +404,7 @@ def test_swing_damping_adds_the_derived_damping_to_the_pendulum(lab):
     assert decay[0.1] == pytest.approx((c + k_s) / 2, rel=0.15)
 
 
-@pytest.mark.parametrize("offset_m", [0.004, 0.02])
+@pytest.mark.parametrize("offset_m", [0.004, 0.04])
 def test_swing_damping_dead_band(lab, offset_m):
     """No damping within the dead band (the command stays exactly 0); beyond it the tip velocity is
     ``k_s (|r_h| - r_0)`` along ``r_h`` (ControllerParams.swing_damping_deadband_rad, r_0 = its angle times L)."""
@@ -417,7 +419,7 @@ def test_swing_damping_dead_band(lab, offset_m):
     r0 = prm.swing_damping_deadband_rad * lab.model.grapple_length
     r = float(np.hypot(r_h[0], r_h[1]))
     expected = max(r - r0, 0.0) * ctl.swing_gain_per_s * np.array([r_h[0], r_h[1], 0.0]) / r
-    assert (r > r0) == (offset_m > 0.01)  # one case each side of the band
+    assert (r > r0) == (offset_m > 0.02)  # one case each side of the band
     np.testing.assert_allclose(v, expected, atol=1e-6)
 
 
