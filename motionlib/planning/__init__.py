@@ -1,4 +1,4 @@
-"""Offline planning: start configuration + goal point -> verified minimum-time trajectory.
+"""Offline planning: start configuration + goal point -> verified minimum-time trajectory, shaped against the swing.
 
 Modules, in pipeline order
 --------------------------
@@ -24,6 +24,17 @@ phase_plane
     Velocity-limited path speed bound and time (003 eqs. 4.8-4.12).
 timing
     Time-optimal time scaling with TOPPRA under the crane's limits.
+time_law
+    The time law ``s(t)`` as a piecewise polynomial (TOPPRA's constant-acceleration profile) and its
+    shaped versions: impulses convolved with it, a moving-average box, a uniform stretch.
+swing
+    The grapple's swing predicted from a planned tip motion (linearised damped pendulum), its
+    residual amplitude and the time to settled.
+shaping
+    Swing shaping of a motion's time law (ZV / ZVD input shaping, fitted to the motion, jerk-limited):
+    the shortest candidate whose predicted residual swing is within tolerance and that verifies.
+smoothness
+    Total jerk (000 eq. 6) of a sampled tip motion, shared with the runtime's measures.
 verification
     :class:`~.verification.Verifier`: dense limit and collision re-check; :func:`~.verification.time_and_verify`.
 planner
