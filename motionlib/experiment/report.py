@@ -287,8 +287,8 @@ def _fig8_peaks(out: Path, result: Any, modes: list[str]) -> Path | None:
         ax.boxplot(data, tick_labels=shown)
         ax.set_ylabel(label)
         ax.grid(axis="y", alpha=0.3)
-    fig.suptitle(f"Peaks from {TRANSITION_BEFORE_S:g} s before to {TRANSITION_AFTER_S:g} s after the "
-                 "automatic-to-manual switch, per mode", fontsize=10)
+    fig.suptitle(f"Peaks in the {TRANSITION_AFTER_S:g} s after the automatic-to-manual switch, per mode",
+                 fontsize=10)
     fig.tight_layout()
     return save_figure(fig, out / "fig8_peaks.png")
 
@@ -397,8 +397,8 @@ def _discussion(an: Analysis) -> list[str]:
                      "abrupt as a traded abort, and the machine (valve lag, relief valves, the joints' oil spring; "
                      "no command ramp in this experiment) shapes both alike")
         text += (". The second-order hydraulic joints and the grapple's pull ring after an abrupt change (000 "
-                 "Fig. 8 a shows such oscillations), but a blend and an abort this fast excite them alike, and the "
-                 "filtered jerk also contains the time-optimal library trajectory's own acceleration switching.")
+                 "Fig. 8 a shows such oscillations), and a blend and an abort this fast excite them alike; the "
+                 "peaks are taken after the switch, as 000 Fig. 8 compares them.")
         lines.append(text)
     e1, e4, e6 = (an.times.mean("expert", m) for m in ("M1", "M4", "M6"))
     n1, n6 = an.times.mean("novice", "M1"), an.times.mean("novice", "M6")
@@ -507,8 +507,8 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
     # transitions
     lines += ["", "## Transitions from automatic to manual (000 Fig. 8)", "",
               f"Every end of an automated motion: an abort (traded), a handover in a weak zone (shared) or an "
-              f"arrival. Peaks of the filtered tip acceleration and jerk from {TRANSITION_BEFORE_S:g} s before to "
-              f"{TRANSITION_AFTER_S:g} s after the anchor (the start of the blend in shared control, the abort "
+              f"arrival. Peaks of the filtered tip acceleration and jerk in the {TRANSITION_AFTER_S:g} s after the "
+              f"anchor, as 000 Fig. 8 compares them (the start of the blend in shared control, the abort "
               f"in traded control, else the arrival); excess: the peak above the same motion's automation-only "
               f"peak; step: the commanded tip velocity's step at the switch; blend: median time for `c_a` to "
               f"fall from 0.9 to 0.1 (0 for an abort); takeover: the median distance of the tip from the "

@@ -23,9 +23,10 @@ joints and the shared pump) and a
   ``arrival``), measured as 000 section 4.1 describes (issue 12 item 4): the window runs from
   ``TRANSITION_BEFORE_S`` before to ``TRANSITION_AFTER_S`` after its *anchor*, the start of
   the blend in shared control (the last sample with ``c_a >= 0.9`` before the handover), the
-  abort in traded control, the arrival otherwise; in it the peaks of the filtered acceleration
-  and jerk, those peaks in excess of the same motion's automation-only peaks (from its start
-  to the anchor), and the step of the commanded tip velocity ``|J (qd_cmd_k - qd_cmd_k-1)|``
+  abort in traded control, the arrival otherwise; the peaks of the filtered acceleration and
+  jerk *after* the anchor (000 Fig. 8 compares the traded abort with the shared handover from
+  the switch on; before it, the automation's own motion would dominate), those peaks in excess
+  of the same motion's automation-only peaks (from its start to the anchor), and the step of the commanded tip velocity ``|J (qd_cmd_k - qd_cmd_k-1)|``
   at the switch; and the excerpt (000 Fig. 8). The tip is filtered with the cutoff
   ``1 / (2 pi tau_noise)``, ``tau_noise`` = 10 ms (000 section 4.1: the noise time scale
   removed by a low-pass filter before differentiating; ``NOISE_FILTER``);
@@ -458,8 +459,9 @@ def _measure(
             blend = _blend_time(sig.t, c_a, cmd.t, sw.t)
             anchor = _blend_start(sig.t, c_a, cmd.t, sw.t)
         ex = sig.excerpt(anchor, TRANSITION_BEFORE_S, TRANSITION_AFTER_S)
-        a2 = np.sum(ex["a"] ** 2, axis=1)
-        j2 = np.sum(ex["j"] ** 2, axis=1)
+        after = ex["t"] >= 0.0  # from the switch on (000 Fig. 8)
+        a2 = np.sum(ex["a"][after] ** 2, axis=1)
+        j2 = np.sum(ex["j"][after] ** 2, axis=1)
         before = np.linalg.norm(ex["v"][ex["t"] <= 0.0], axis=1)
         peak_a = float(np.sqrt(a2.max())) if a2.size else 0.0
         peak_j = float(np.sqrt(j2.max())) if j2.size else 0.0

@@ -346,7 +346,7 @@ def findings(jerk: JerkTable, times: TimeTable, transitions: dict[tuple[str, str
     name = "Shared-control transitions have ~10x smaller peaks than traded"
     paper = ("section 4.1, Fig. 8: traded transition with acceleration ~10 m/s^2 and jerk ~100 m/s^3 peaks; "
              "shared control a factor 10 smaller")
-    criterion = (f"median peak jerk around the switch, M5 / M6: >= {TRANSITION_REPRODUCED:g} reproduced, "
+    criterion = (f"median peak jerk after the switch (000 Fig. 8), M5 / M6: >= {TRANSITION_REPRODUCED:g} reproduced, "
                  f">= {TRANSITION_PARTLY:g} partly")
     t5, t6 = transitions.get(("M5", "all")), transitions.get(("M6", "all"))
     if t5 is not None and t6 is not None and t5.n and t6.n and t6.median_peak_jerk_m_s3 > 0:
