@@ -89,8 +89,8 @@ Vec4 = tuple[float, float, float, float]
 TABLE_COLUMNS: tuple[str, ...] = ("px", "py", "pz", "v2", "q1", "q2", "q3", "q4",
                                   "dq1_ds", "dq2_ds", "dq3_ds", "dq4_ds", "t", "rx", "ry")
 """Columns of :attr:`PathTracker.table`: path point (m), planned speed squared (m^2/s^2), planned
-configuration and its derivative over arc length, and the planned time (s) at which the tip passes,
-at every sample."""
+configuration and its derivative over arc length, the planned time (s) at which the tip passes and the
+grapple's planned horizontal offset from the tip (m, base x and y), at every sample."""
 _V2, _Q, _DQ, _T, _RX = 3, 4, 8, 12, 13
 TRACKER_STATE: tuple[str, ...] = ("index", "s_p", "deviation", "dist_end", "lookahead", "speed",
                                   "pd_x", "pd_y", "pd_z", "z1", "z2", "z3", "z4", "t_ref", "s_ref", "ref_index",
