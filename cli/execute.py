@@ -11,7 +11,7 @@ from typing import Any
 
 import click
 
-from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, json_option, mode_option, vector_option
+from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_option, mode_option, vector_option
 from .output import emit_json
 
 
@@ -27,10 +27,10 @@ from .output import emit_json
               help="Selection utility (003 eqs. 5.6-5.7).")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
               help="Seed of the operator model and the valve noise.")
-@click.option("--noise", default=0.0, show_default=True, type=click.FloatRange(min=0.0, max=10.0),
+@click.option("--noise", default=0.0, show_default=True, type=FiniteFloatRange(min=0.0, max=10.0),
               help="Valve flow noise (standard deviation, fraction of the command).")
 @click.option("--time-limit", default=60.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
+              type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--no-swing-damping", is_flag=True,
               help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
@@ -43,7 +43,7 @@ from .output import emit_json
               "2.4) adds its rate to the automation's, centring the grapple above it.")
 @vector_option("vision-gains", 3, "K_V per camera axis (1/s; along the boom, to its right, down; 0 disables an axis). "
                "Default 1,1,1.")
-@click.option("--accommodation", "force_bound", type=click.FloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
+@click.option("--accommodation", "force_bound", type=FiniteFloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
               help="Force accommodation (001 section 2.5), with the contact of the ground and the scene's obstacles "
               "on: a steady push of the stick into the ground settles at 0.8 of this force (N).")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",

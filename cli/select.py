@@ -10,10 +10,10 @@ import math
 
 import click
 
-from .options import VECTOR_LIMIT, json_option, vector_option
+from .options import VECTOR_LIMIT, FiniteFloatRange, json_option, vector_option
 from .output import emit_json
 
-DISTANCE = click.FloatRange(min=0.0, min_open=True, max=VECTOR_LIMIT)
+DISTANCE = FiniteFloatRange(min=0.0, min_open=True, max=VECTOR_LIMIT)
 
 
 def _finite_or_none(x: float) -> float | None:
