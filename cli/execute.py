@@ -15,11 +15,23 @@ from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_opti
 from .output import emit_json
 
 
+def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    """The ``--operator`` spec, checked when the option is parsed: before the runtime and the library are loaded."""
+    from motionlib.errors import InputError
+    from motionlib.sim.operators import operator_kind
+
+    try:
+        operator_kind(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc).removeprefix("operator: "), ctx, param) from exc
+    return value
+
+
 @click.command()
 @click.argument("library", type=click.Path(dir_okay=False))
 @vector_option("target", 3, "Target tip point x,y,z (m, base frame).", required=True)
 @mode_option
-@click.option("--operator", "operator_spec", default="passive", show_default=True,
+@click.option("--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
               help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).")
 @vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: the selected "
                "trajectory's start.")
@@ -58,10 +70,8 @@ def execute(
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
-    from motionlib.sim.operators import operator_kind
     from motionlib.sim.plant import SimParams
 
-    operator_kind(operator_spec)  # fail early on a bad --operator
     vision = _vision_options(vision_target, vision_gains)
     accommodation = None
     if force_bound is not None:
