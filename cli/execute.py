@@ -79,7 +79,7 @@ def execute(
     elif accommodation_axes != "xyz":
         raise click.UsageError("--accommodation-axes needs --accommodation")
     lib = Library.open(library)
-    selection = lib.select(target, current, utility).raise_for_status(str(library))
+    selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
     row = int(selection.indices[0])
     controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,

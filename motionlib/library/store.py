@@ -555,6 +555,33 @@ class Library:
         """
         return self.index.select(target_p, current_q, utility, **kw)
 
+    def select_checked(
+        self, target_p: Any, current_q: Any = None, utility: str = "time", max_candidates: int = 10, **kw: Any
+    ) -> SelectionResult:
+        """:meth:`select`, offering only rows whose stored trajectory :meth:`trajectory` accepts.
+
+        Opening a library checks its index; a trajectory is checked only when it is read. This reads
+        the ranked rows' trajectories, best first: a row whose trajectory is refused (a NaN in its
+        stored ``q``, a limit broken, a disagreement with its index row) is left out, listed in
+        ``SelectionResult.skipped`` with the reason, and the next acceptable row takes its place.
+        Status NO_USABLE_ENTRY when every acceptable row is refused. Arguments as :meth:`select`.
+        """
+        problems: dict[int, str] = {}
+        checked: set[int] = set()
+        n = max_candidates
+        while True:
+            result = self.select(target_p, current_q, utility, max_candidates=n, **kw)
+            for i in set(result.indices.tolist()) - checked:
+                checked.add(i)
+                try:
+                    self.trajectory(i)
+                except LibraryFileError as exc:
+                    problems[i] = str(exc)
+            bad = sum(i in problems for i in result.indices.tolist())
+            if result.indices.size - bad >= max_candidates or n >= result.n_candidates:
+                return result.skipping(problems, max_candidates)
+            n = max_candidates + bad
+
     # ------------------------------------------------------------------ lazy reads
     def trajectory(self, i: int) -> Trajectory:
         """The trajectory of index row ``i`` (0 <= i < len(self)), read from the file."""
