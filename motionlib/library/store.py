@@ -529,10 +529,13 @@ class Library:
         """The :class:`motionlib.library.selection.SelectionIndex` over the index arrays (built on first use)."""
         if len(self) == 0:
             raise InputError(f"{self.path}: the library has no successful entries to select from")
-        return SelectionIndex(
-            self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t,
-            self.time_to_settled_s,
-        )
+        try:
+            return SelectionIndex(
+                self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t,
+                self.time_to_settled_s,
+            )
+        except InputError as exc:  # index arrays that disagree with each other (e.g. approach_p with end_p)
+            raise LibraryFileError(f"{self.path}: corrupt library: /index: {exc}") from exc
 
     def select(self, target_p: Any, current_q: Any = None, utility: str = "time", **kw: Any) -> SelectionResult:
         """Rank the library's trajectories for an estimated target (003 eqs. 5.3-5.7).

@@ -383,7 +383,7 @@ class Violation:
 
     def __str__(self) -> str:
         return (
-            f"{self.limit} {self.label}: {self.ratio:.4f} x the limit at t = {self.t:.3f} s "
+            f"{self.limit} {self.label}: {self.ratio:.5g} x the limit at t = {self.t:.3f} s "
             f"(sample {self.index}; {self.count} samples beyond tolerance)"
         )
 

@@ -592,3 +592,19 @@ def test_select_skips_an_entry_whose_stored_q_holds_nan(synthetic, tmp_path):
     assert only.status.value == "no_usable_entry" and str(refused.value) in only.message
     with pytest.raises(NoSelectionError, match="acceptable, but the trajectory of each one checked is refused"):
         only.raise_for_status()
+
+
+def test_inconsistent_index_is_a_file_error_naming_the_file(synthetic, tmp_path):
+    """Issue 24 item 6: approach_p whose last point is not end_p (re-sealed) gave 'approach_p: last point is not
+    end_p' without the file; select (API and CLI) now names the file."""
+    path = tmp_path / "approach.h5"
+    shutil.copy(synthetic[0], path)
+    with h5py.File(path, "r+") as f:
+        f["index/approach_p"][4, -1, 2] += 0.5
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=rf"^{path}: corrupt library: /index: approach_p: last point is not "
+                                               r"end_p \(1 mm\) in row 4$"):
+        Library.open(path).select([3.0, 0.0, 1.0])
+    result = CliRunner().invoke(cli, ["select", str(path), "--target", "3,0,1"])
+    assert result.exit_code == 1 and result.output.startswith(f"Error: {path}: corrupt library") and \
+        result.output.count("\n") == 1, result.output
