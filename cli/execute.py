@@ -11,15 +11,27 @@ from typing import Any
 
 import click
 
-from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, json_option, mode_option, vector_option
+from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_option, mode_option, vector_option
 from .output import emit_json
+
+
+def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    """The ``--operator`` spec, checked when the option is parsed: before the runtime and the library are loaded."""
+    from motionlib.errors import InputError
+    from motionlib.sim.operators import operator_kind
+
+    try:
+        operator_kind(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc).removeprefix("operator: "), ctx, param) from exc
+    return value
 
 
 @click.command()
 @click.argument("library", type=click.Path(dir_okay=False))
 @vector_option("target", 3, "Target tip point x,y,z (m, base frame).", required=True)
 @mode_option
-@click.option("--operator", "operator_spec", default="passive", show_default=True,
+@click.option("--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
               help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).")
 @vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: the selected "
                "trajectory's start.")
@@ -27,10 +39,10 @@ from .output import emit_json
               help="Selection utility (003 eqs. 5.6-5.7).")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
               help="Seed of the operator model and the valve noise.")
-@click.option("--noise", default=0.0, show_default=True, type=click.FloatRange(min=0.0, max=10.0),
+@click.option("--noise", default=0.0, show_default=True, type=FiniteFloatRange(min=0.0, max=10.0),
               help="Valve flow noise (standard deviation, fraction of the command).")
 @click.option("--time-limit", default=60.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
+              type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S), help="Longest simulated time (s).")
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--no-swing-damping", is_flag=True,
               help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
@@ -43,7 +55,7 @@ from .output import emit_json
               "2.4) adds its rate to the automation's, centring the grapple above it.")
 @vector_option("vision-gains", 3, "K_V per camera axis (1/s; along the boom, to its right, down; 0 disables an axis). "
                "Default 1,1,1.")
-@click.option("--accommodation", "force_bound", type=click.FloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
+@click.option("--accommodation", "force_bound", type=FiniteFloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
               help="Force accommodation (001 section 2.5), with the contact of the ground and the scene's obstacles "
               "on: a steady push of the stick into the ground settles at 0.8 of this force (N).")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
@@ -58,10 +70,8 @@ def execute(
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
-    from motionlib.sim.operators import operator_kind
     from motionlib.sim.plant import SimParams
 
-    operator_kind(operator_spec)  # fail early on a bad --operator
     vision = _vision_options(vision_target, vision_gains)
     accommodation = None
     if force_bound is not None:
@@ -69,7 +79,7 @@ def execute(
     elif accommodation_axes != "xyz":
         raise click.UsageError("--accommodation-axes needs --accommodation")
     lib = Library.open(library)
-    selection = lib.select(target, current, utility).raise_for_status(str(library))
+    selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
     row = int(selection.indices[0])
     controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
     options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from .options import MODES, RUN_TIME_LIMIT_S, json_option
+from .options import MODES, RUN_TIME_LIMIT_S, FiniteFloatRange, json_option
 
 
 @click.group()
@@ -34,7 +34,7 @@ def experiment() -> None:
               help="fixed: go out ends at the fix point between the pick-up areas, go back over the target area "
                    "(000 section 3.3); per-log: at the log's grab point and release point.")
 @click.option("--time-limit", default=900.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
+              type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one series (s).")
 @json_option
 def log_loading(
@@ -90,7 +90,7 @@ def log_loading(
 @click.option("--swing-damping/--no-swing-damping", default=True, show_default=True,
               help="The controller's swing damping (on, as in motionlib execute).")
 @click.option("--time-limit", default=600.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
+              type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one run (s).")
 @click.option("--out", "out_dir", default="loading-cycle", show_default=True, type=click.Path(file_okay=False),
               help="Output folder (states.csv, cycles.csv, states.png, loading-cycle.json).")

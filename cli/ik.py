@@ -5,16 +5,16 @@ from __future__ import annotations
 import click
 import numpy as np
 
-from .options import VECTOR_LIMIT, crane_option, format_q, json_option, vector_option
+from .options import VECTOR_LIMIT, FiniteFloatRange, crane_option, format_q, json_option, vector_option
 from .output import emit_json
 
 
 @click.command()
 @crane_option()
 @vector_option("target", 3, "Tip position x,y,z in the base frame (m); e.g. --target=-3,4,2", required=True)
-@click.option("--telescope", type=click.FloatRange(-VECTOR_LIMIT, VECTOR_LIMIT),
+@click.option("--telescope", type=FiniteFloatRange(-VECTOR_LIMIT, VECTOR_LIMIT),
               help="Telescope extension q4 (m); default: chosen by a search (see docs).")
-@click.option("--q1-ref", type=click.FloatRange(-VECTOR_LIMIT, VECTOR_LIMIT), default=0.0, show_default=True,
+@click.option("--q1-ref", type=FiniteFloatRange(-VECTOR_LIMIT, VECTOR_LIMIT), default=0.0, show_default=True,
               help="Slew angle (rad) to stay near.")
 @json_option
 def ik(crane_name: str, target: np.ndarray, telescope: float | None, q1_ref: float, as_json: bool) -> None:

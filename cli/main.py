@@ -12,7 +12,8 @@ solvers). Errors become one line on stderr here, at the edge, and nowhere else:
   command and asking for a report, exit status :data:`BUG_EXIT_STATUS`; the traceback is
   shown only with ``motionlib --debug ...`` or the environment variable ``MOTIONLIB_DEBUG=1``.
 
-Usage errors (bad options) are click's: exit status 2.
+Usage errors (a bad option or argument, an unknown command) are one line too,
+``Error: <command>: <click's message> (<command> --help)``, exit status 2.
 """
 
 from __future__ import annotations
@@ -71,8 +72,30 @@ def _command_path(ctx: click.Context, exc: BaseException) -> str:
     return path
 
 
+class OneLineUsageError(click.ClickException):
+    """A usage error shown as one line (click's own shows usage, a hint, a blank line and the error)."""
+
+    exit_code = 2
+
+
+def _one_line_usage(exc: click.UsageError, ctx: click.Context | None = None) -> OneLineUsageError:
+    """``<command>: <message> (<command> --help)``: the command of the error's context, else the innermost one."""
+    if exc.ctx is not None:
+        path = exc.ctx.command_path
+    else:
+        path = _command_path(ctx, exc) if ctx is not None else "motionlib"
+    return OneLineUsageError(one_line(f"{path}: {exc.format_message()} ({path} --help)"))
+
+
 class MotionlibGroup(click.Group):
     """A click group with lazily imported commands that turns every exception into one line (see the module)."""
+
+    def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
+                     **extra: Any) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as exc:  # the group's own options
+            raise _one_line_usage(exc) from exc
 
     def list_commands(self, ctx: click.Context) -> list[str]:
         return sorted(COMMANDS)
@@ -88,6 +111,8 @@ class MotionlibGroup(click.Group):
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except click.UsageError as exc:  # a command's options and arguments, an unknown command
+            raise _one_line_usage(exc, ctx) from exc
         except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort, KeyboardInterrupt):
             raise
         except MotionlibError as exc:

@@ -5,6 +5,7 @@ Each is declared once here; a command module applies the decorators it needs.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any, TypeVar
 
@@ -47,6 +48,20 @@ class FloatList(click.ParamType):
             return parse_csv_floats(str(value), self.size, self.label, self.limit)
         except InputError as exc:
             self.fail(str(exc), param, ctx)
+
+
+class FiniteFloatRange(click.FloatRange):
+    """:class:`click.FloatRange` that also refuses NaN and infinities.
+
+    NaN passes every comparison, so the plain range accepts ``nan`` for any bounds; use this
+    type for every float option.
+    """
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = click.FLOAT.convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number.", param, ctx)
+        return super().convert(number, param, ctx)
 
 
 def json_option(f: F) -> F:

@@ -7,7 +7,7 @@ import click
 from motionlib.checks import parse_csv_floats
 from motionlib.library.spec import PLANNER_RANGES
 
-from .options import VECTOR_LIMIT, crane_option, json_option, scene_option
+from .options import VECTOR_LIMIT, FiniteFloatRange, crane_option, json_option, scene_option
 from .output import emit_json
 
 
@@ -20,7 +20,7 @@ from .output import emit_json
 @click.option("--loaded", is_flag=True, help="The grapple carries a log.")
 @click.option(
     "--log-yaw",
-    type=click.FloatRange(PLANNER_RANGES["goal_log_yaw"].hard_lo, PLANNER_RANGES["goal_log_yaw"].hard_hi),
+    type=FiniteFloatRange(PLANNER_RANGES["goal_log_yaw"].hard_lo, PLANNER_RANGES["goal_log_yaw"].hard_hi),
     help="Cranes with a grapple rotator: yaw (rad, base frame, mod pi) of the carried log at the goal; "
     "0 aligns it with the bunk. Default: the rotator keeps its start angle.",
 )
@@ -40,7 +40,7 @@ from .output import emit_json
     "--time-limit",
     default=60.0,
     show_default=True,
-    type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
+    type=FiniteFloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["time_limit_s"].hard_hi),
     help="Wall-clock cap of the tip-path search (s): reaching it fails the plan (status timeout).",
 )
 @click.option("--swing-shaping/--no-swing-shaping", default=True, show_default=True,
@@ -50,7 +50,7 @@ from .output import emit_json
     "--swing-tolerance",
     default=0.03,
     show_default=True,
-    type=click.FloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["swing_tolerance_rad"].hard_hi),
+    type=FiniteFloatRange(min=0.0, min_open=True, max=PLANNER_RANGES["swing_tolerance_rad"].hard_hi),
     help="Residual swing (rad) that counts as settled: the shaping's target and the time to settled's tolerance.",
 )
 def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, plot_dir, seed, planner,

@@ -10,10 +10,10 @@ import math
 
 import click
 
-from .options import VECTOR_LIMIT, json_option, vector_option
+from .options import VECTOR_LIMIT, FiniteFloatRange, json_option, vector_option
 from .output import emit_json
 
-DISTANCE = click.FloatRange(min=0.0, min_open=True, max=VECTOR_LIMIT)
+DISTANCE = FiniteFloatRange(min=0.0, min_open=True, max=VECTOR_LIMIT)
 
 
 def _finite_or_none(x: float) -> float | None:
@@ -36,7 +36,11 @@ def _finite_or_none(x: float) -> float | None:
 @click.option("--crane", help="Refuse the library unless it was built for this crane (name or file).")
 @json_option
 def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candidates, crane, as_json) -> None:
-    """Rank the trajectories of LIBRARY that end near TARGET (and start near CURRENT), best first."""
+    """Rank the trajectories of LIBRARY that end near TARGET (and start near CURRENT), best first.
+
+    The ranked trajectories are read and checked as execute reads them: one that is refused (a damaged
+    entry) is skipped, with the reason, and the next one takes its place.
+    """
     from motionlib.library.store import Library
 
     target_p, current_q = target, current
@@ -45,7 +49,8 @@ def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candi
         if value is not None:
             kw[name] = value
     lib = Library.open(library, crane=crane)
-    result = lib.select(target_p, current_q, utility, **kw).raise_for_status(str(library))
+    result = lib.select_checked(target_p, current_q, utility, **kw).raise_for_status(str(library))
+    skipped = [{"index": i, "entry": int(lib.entry[i]), "reason": reason} for i, reason in result.skipped]
     candidates = [
         {
             "index": c.index,
@@ -69,6 +74,7 @@ def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candi
                 "current": current_q,
                 "n_candidates": result.n_candidates,
                 "candidates": candidates,
+                "skipped": skipped,
             }
         )
         return
@@ -81,3 +87,5 @@ def select(library, target, current, utility, l1, l2, sigma, v_manual, max_candi
             f"{rank:4d} {c['index']:6d} {c['entry']:6d} {c['duration_s']:10.2f} {c['energy_m3'] * 1e3:9.2f} "
             f"{c['score']:9.3f} {c['end_distance_m']:8.3f}  [{end}]"
         )
+    for s in skipped:
+        click.echo(f"skipped index {s['index']} (entry {s['entry']}): {s['reason']}")

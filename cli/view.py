@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from .options import json_option
+from .options import FiniteFloatRange, json_option
 from .output import emit_json
 
 
@@ -16,7 +16,7 @@ from .output import emit_json
     "-o", "--output", type=click.Path(dir_okay=False), help="HTML file to write [default: FILE with suffix .html]."
 )
 @click.option("--rate", "rate_hz", default=10.0, show_default=True,
-              type=click.FloatRange(min=0.0, min_open=True, max=1000.0),
+              type=FiniteFloatRange(min=0.0, min_open=True, max=1000.0),
               help="Animation frames per second of motion (Hz).")
 @click.option(
     "--library",

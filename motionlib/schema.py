@@ -19,6 +19,7 @@ ranges instead; its :class:`Section` objects carry ``relaxed=True``.
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 from typing import Any, NoReturn
@@ -139,6 +140,10 @@ def read_plausibility(top: Section) -> bool:
 
 
 _MISSING = object()
+#: Similarity (difflib ratio) from which a key not read so far is named as a possible misspelling of a
+#: missing required key. One letter added, dropped or changed, or two letters swapped, in a key of 5 or
+#: more letters scores at least 0.8; so do some valid pairs (velocity_max, velocity_min: 0.83), hence a question.
+MISSPELLING_CUTOFF = 0.8
 
 
 class Section:
@@ -195,9 +200,15 @@ class Section:
         self._used.add(key)
         if key not in self.data:
             if default is _MISSING:
-                self.fail(key, "required key is missing")
+                self.fail(key, "required key is missing" + self._misspelling_hint(key))
             return default
         return self.data[key]
+
+    def _misspelling_hint(self, key: str) -> str:
+        """`` (is 'boom_lenght' here a misspelling of it?)`` for the closest key not read so far, or ""."""
+        unread = [k for k in self.data if isinstance(k, str) and k not in self._used]
+        close = difflib.get_close_matches(key, unread, n=1, cutoff=MISSPELLING_CUTOFF)
+        return f" (is {short(close[0], 60)} here a misspelling of it?)" if close else ""
 
     # -- typed accessors -------------------------------------------------------
     def number(

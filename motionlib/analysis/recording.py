@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelFileError
+from ..errors import InputError, ModelFileError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..schema import read_text
@@ -223,9 +223,12 @@ def _number(path: Path, lineno: int, column: str, text: str) -> float:
     return x
 
 
-def _load_crane(path: Path, name: str) -> Crane:
-    """A shipped crane by name, or a crane file relative to the recording."""
-    return Crane.load(path.parent / name if name.endswith((".yaml", ".yml")) else name)
+def _load_crane(path: Path, name: str, key: str = "header key 'crane'") -> Crane:
+    """A shipped crane by name, or a crane file relative to the recording; errors name the recording and ``key``."""
+    try:
+        return Crane.load(path.parent / name if name.endswith((".yaml", ".yml")) else name)
+    except (ModelFileError, InputError) as exc:
+        raise ModelFileError(f"{path}: {key}: {exc}") from exc
 
 
 def _load_scene(path: Path, name: str, crane: Crane) -> Scene:
@@ -233,7 +236,10 @@ def _load_scene(path: Path, name: str, crane: Crane) -> Scene:
     if not candidate.is_absolute():
         beside = path.parent / candidate
         candidate = beside if beside.exists() else candidate
-    return Scene.load(candidate, crane=crane)
+    try:
+        return Scene.load(candidate, crane=crane)
+    except (ModelFileError, InputError) as exc:
+        raise ModelFileError(f"{path}: header key 'scene': {exc}") from exc
 
 
 # --------------------------------------------------------------------- run log
@@ -256,7 +262,7 @@ def _read_runlog(path: Path, crane: Crane | None, scene: Scene | None) -> Record
             lib = Library.open(lib_path)
             crane, scene = crane or lib.crane, scene or lib.scene
         elif crane is None:
-            crane = Crane.load(str(attrs.get("crane", "")))
+            crane = _load_crane(path, str(attrs.get("crane", "")), "attribute 'crane'")
     assert crane is not None
     events = tuple(
         GrappleEvent(float(e["t"]), e["name"].removeprefix("grapple_"))
@@ -285,7 +291,7 @@ def _checked(
     if outside.any():
         k, j = (int(v) for v in np.argwhere(outside)[0])
         raise ModelFileError(
-            f"{path}: q{j + 1} = {q[k, j]:.4f} at t = {t[k]} s is outside the limits "
+            f"{path}: q{j + 1} = {q[k, j]:.6g} at t = {t[k]} s is outside the limits "
             f"[{crane.q_min[j]}, {crane.q_max[j]}] of crane {crane.name!r} (tolerance {LIMIT_TOLERANCE})"
         )
     if sticks is not None and np.any(np.abs(sticks) > 1.0):

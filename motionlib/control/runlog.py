@@ -268,14 +268,14 @@ def _read_events(f: h5py.File, where: str) -> list[dict[str, Any]]:
     if not isinstance(ev, h5py.Group):
         raise LibraryFileError(f"{where}: group events is missing")
     times = read_array(ev, "t", f"{where}: events", MAX_RUNLOG_SAMPLES)
+    if times.ndim != 1 or not np.all(np.isfinite(times)):
+        raise LibraryFileError(f"{where}: events/t: expected a 1-D array of finite times, got shape {times.shape}")
     texts = []
     for key in ("name", "detail"):
         ds = ev.get(key)
         if not isinstance(ds, h5py.Dataset) or h5py.check_string_dtype(ds.dtype) is None or ds.shape != times.shape:
             raise LibraryFileError(f"{where}: events/{key}: expected {times.shape[0]} strings")
         texts.append(ds.asstr()[()].tolist() if times.size else [])
-    if times.ndim != 1 or not np.all(np.isfinite(times)):
-        raise LibraryFileError(f"{where}: events/t: expected finite times")
     return [{"t": float(t), "name": n, "detail": d} for t, n, d in zip(times, *texts, strict=True)]
 
 

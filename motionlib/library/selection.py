@@ -77,7 +77,7 @@ from __future__ import annotations
 import enum
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -128,6 +128,7 @@ class SelectionStatus(enum.Enum):
     OK = "ok"
     NO_TARGET_MATCH = "no_target_match"  # no end point within L1 of the target
     NO_START_MATCH = "no_start_match"  # end points within L1, but none of their starts within L2
+    NO_USABLE_ENTRY = "no_usable_entry"  # acceptable entries, but every one's stored trajectory is refused
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,9 @@ class SelectionResult:
         The current configuration ``q_c``; NaN when none was given.
     L1, L2, sigma_m, v_manual_m_s : float
         The acceptance limits and robust-model parameters used (NaN where not used).
+    skipped : tuple of (int, str)
+        Acceptable rows left out of the ranking, with the reason: their stored trajectory was refused
+        (:meth:`motionlib.library.store.Library.select_checked`); empty from :meth:`SelectionIndex.select`.
     """
 
     status: SelectionStatus
@@ -204,6 +208,16 @@ class SelectionResult:
     v_manual_m_s: float
     _index: SelectionIndex = field(repr=False, compare=False)
     _pool: np.ndarray = field(repr=False, compare=False)  # rows over which nearest_* are taken
+    skipped: tuple[tuple[int, str], ...] = ()
+
+    def skipping(self, problems: dict[int, str], max_candidates: int) -> SelectionResult:
+        """This result without the ranked rows in ``problems`` (row -> why it cannot be used), at most
+        ``max_candidates`` rows; status NO_USABLE_ENTRY when none is left."""
+        keep = np.array([i not in problems for i in self.indices.tolist()], dtype=bool)
+        skipped = tuple((i, problems[i]) for i in self.indices.tolist() if i in problems)
+        status = self.status if keep.any() or not self.ok else SelectionStatus.NO_USABLE_ENTRY
+        return replace(self, status=status, indices=self.indices[keep][:max_candidates],
+                       scores=self.scores[keep][:max_candidates], skipped=skipped)
 
     @property
     def ok(self) -> bool:
@@ -251,8 +265,13 @@ class SelectionResult:
     @property
     def message(self) -> str:
         """One line for the operator's display or a log."""
+        skipped = f"; skipped {len(self.skipped)} whose trajectory is refused" if self.skipped else ""
         if self.status is SelectionStatus.OK:
-            return f"selected entry {int(self.indices[0])} of {self.n_candidates} candidates by {self.utility.value}"
+            return (f"selected entry {int(self.indices[0])} of {self.n_candidates} candidates by {self.utility.value}"
+                    f"{skipped}")
+        if self.status is SelectionStatus.NO_USABLE_ENTRY:
+            return (f"{self.n_candidates} library entries are acceptable, but the trajectory of each one checked is "
+                    f"refused: {self.skipped[0][1]}")
         if self.status is SelectionStatus.NO_TARGET_MATCH:
             return (
                 f"no library end point within L1 = {self.L1} m of the target; "

@@ -529,10 +529,13 @@ class Library:
         """The :class:`motionlib.library.selection.SelectionIndex` over the index arrays (built on first use)."""
         if len(self) == 0:
             raise InputError(f"{self.path}: the library has no successful entries to select from")
-        return SelectionIndex(
-            self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t,
-            self.time_to_settled_s,
-        )
+        try:
+            return SelectionIndex(
+                self.start_q, self.end_p, self.duration_s, self.energy_m3, self.approach_p, self.approach_t,
+                self.time_to_settled_s,
+            )
+        except InputError as exc:  # index arrays that disagree with each other (e.g. approach_p with end_p)
+            raise LibraryFileError(f"{self.path}: corrupt library: /index: {exc}") from exc
 
     def select(self, target_p: Any, current_q: Any = None, utility: str = "time", **kw: Any) -> SelectionResult:
         """Rank the library's trajectories for an estimated target (003 eqs. 5.3-5.7).
@@ -554,6 +557,33 @@ class Library:
             Candidate ``index`` values are rows of this library (``lib.trajectory(i)``).
         """
         return self.index.select(target_p, current_q, utility, **kw)
+
+    def select_checked(
+        self, target_p: Any, current_q: Any = None, utility: str = "time", max_candidates: int = 10, **kw: Any
+    ) -> SelectionResult:
+        """:meth:`select`, offering only rows whose stored trajectory :meth:`trajectory` accepts.
+
+        Opening a library checks its index; a trajectory is checked only when it is read. This reads
+        the ranked rows' trajectories, best first: a row whose trajectory is refused (a NaN in its
+        stored ``q``, a limit broken, a disagreement with its index row) is left out, listed in
+        ``SelectionResult.skipped`` with the reason, and the next acceptable row takes its place.
+        Status NO_USABLE_ENTRY when every acceptable row is refused. Arguments as :meth:`select`.
+        """
+        problems: dict[int, str] = {}
+        checked: set[int] = set()
+        n = max_candidates
+        while True:
+            result = self.select(target_p, current_q, utility, max_candidates=n, **kw)
+            for i in set(result.indices.tolist()) - checked:
+                checked.add(i)
+                try:
+                    self.trajectory(i)
+                except LibraryFileError as exc:
+                    problems[i] = str(exc)
+            bad = sum(i in problems for i in result.indices.tolist())
+            if result.indices.size - bad >= max_candidates or n >= result.n_candidates:
+                return result.skipping(problems, max_candidates)
+            n = max_candidates + bad
 
     # ------------------------------------------------------------------ lazy reads
     def trajectory(self, i: int) -> Trajectory:

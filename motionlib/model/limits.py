@@ -18,23 +18,29 @@ checks a sampled trajectory against a list of limits.
 Limits have four components (the arm joints q1-q4), or five with the grapple rotator q5
 (``limits_for(crane, with_rotator=True)`` on a crane that has one): the rotator is one more
 hydraulic joint with its own velocity and acceleration limits, drawing from the same pump.
+
+TOPPRA (which imports matplotlib) is imported only by ``toppra_constraint()``: checking a stored
+trajectory against the limits (``motionlib select``, :func:`motionlib.planning.trajectory.check_trajectory`)
+stays light.
 """
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import toppra.constraint as tc
-from toppra.constants import JVEL_MAXSD
 
 from ..checks import check_points, check_scalar, check_vector
 from ..errors import InputError
 from .crane_model import JOINT_NAMES, ROTATOR_NAME
 from .kinematics import Crane
+
+if TYPE_CHECKING:
+    import toppra.constraint as tc
 
 N_JOINTS = len(JOINT_NAMES)
 #: Joint names of a configuration with the grapple rotator.
@@ -198,6 +204,8 @@ class JointVelocityLimit(Limit):
 
     def toppra_constraint(self) -> tc.Constraint:
         """``toppra.constraint.JointVelocityConstraint`` with ``vlim[i] = (qd_min_i, qd_max_i)``."""
+        import toppra.constraint as tc
+
         return tc.JointVelocityConstraint(np.stack([self.qd_min, self.qd_max], axis=1))
 
 
@@ -224,6 +232,8 @@ class JointAccelerationLimit(Limit):
 
     def toppra_constraint(self) -> tc.Constraint:
         """``toppra.constraint.JointAccelerationConstraint`` (interpolation discretisation)."""
+        import toppra.constraint as tc
+
         return tc.JointAccelerationConstraint(np.stack([-self.qdd_max, self.qdd_max], axis=1))
 
 
@@ -266,36 +276,44 @@ class PumpFlowLimit(Limit):
 
     def toppra_constraint(self) -> tc.Constraint:
         """A TOPPRA velocity constraint ``s_dot^2 <= path_speed_bound(q'(s))^2`` per gridpoint."""
-        return PathSpeedConstraint(self)
+        return path_speed_constraint_type()(self)
 
 
-class PathSpeedConstraint(tc.LinearConstraint):
-    """TOPPRA constraint bounding ``x = s_dot^2`` by a :class:`Limit`'s path speed bound.
+@functools.cache
+def path_speed_constraint_type() -> type[tc.LinearConstraint]:
+    """:class:`PathSpeedConstraint`, defined on first use (it subclasses a TOPPRA class)."""
+    import toppra.constraint as tc
+    from toppra.constants import JVEL_MAXSD
 
-    Follows TOPPRA's :class:`~toppra.constraint.LinearConstraint` interface the
-    way its joint velocity constraints do: only ``xbound`` (N+1, 2) is returned,
-    ``0 <= x <= min(path_speed_bound, JVEL_MAXSD)^2`` at each gridpoint
-    (collocation). ``JVEL_MAXSD`` is TOPPRA's own cap for unbounded speeds.
+    class PathSpeedConstraint(tc.LinearConstraint):
+        """TOPPRA constraint bounding ``x = s_dot^2`` by a :class:`Limit`'s path speed bound.
 
-    Parameters
-    ----------
-    limit : Limit
-        A limit with :meth:`Limit.speed_bounds`.
-    """
+        Follows TOPPRA's :class:`~toppra.constraint.LinearConstraint` interface the
+        way its joint velocity constraints do: only ``xbound`` (N+1, 2) is returned,
+        ``0 <= x <= min(path_speed_bound, JVEL_MAXSD)^2`` at each gridpoint
+        (collocation). ``JVEL_MAXSD`` is TOPPRA's own cap for unbounded speeds.
 
-    def __init__(self, limit: Limit):
-        super().__init__()
-        self.limit = limit
-        self.dof = limit.dof
-        self._format_string = f"    Path speed bound from {limit!r}\n"
+        Parameters
+        ----------
+        limit : Limit
+            A limit with :meth:`Limit.speed_bounds`.
+        """
 
-    def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
-        """TOPPRA interface: ``(a, b, c, F, g, ubound, xbound)`` with only ``xbound`` (N+1, 2) set."""
-        if path.dof != self.dof:
-            raise ValueError(f"Wrong dimension: constraint dof ({self.dof}) not equal to path dof ({path.dof})")
-        sd_max = np.minimum(self.limit.path_speed_bound(path(gridpoints, 1)), JVEL_MAXSD)
-        xbound = np.stack([np.zeros_like(sd_max), sd_max**2], axis=1)
-        return None, None, None, None, None, None, xbound
+        def __init__(self, limit: Limit):
+            super().__init__()
+            self.limit = limit
+            self.dof = limit.dof
+            self._format_string = f"    Path speed bound from {limit!r}\n"
+
+        def compute_constraint_params(self, path, gridpoints, *args, **kwargs):
+            """TOPPRA interface: ``(a, b, c, F, g, ubound, xbound)`` with only ``xbound`` (N+1, 2) set."""
+            if path.dof != self.dof:
+                raise ValueError(f"Wrong dimension: constraint dof ({self.dof}) not equal to path dof ({path.dof})")
+            sd_max = np.minimum(self.limit.path_speed_bound(path(gridpoints, 1)), JVEL_MAXSD)
+            xbound = np.stack([np.zeros_like(sd_max), sd_max**2], axis=1)
+            return None, None, None, None, None, None, xbound
+
+    return PathSpeedConstraint
 
 
 def limits_for(crane: Crane, scale: float = 1.0, with_rotator: bool = False) -> list[Limit]:
@@ -365,7 +383,7 @@ class Violation:
 
     def __str__(self) -> str:
         return (
-            f"{self.limit} {self.label}: {self.ratio:.4f} x the limit at t = {self.t:.3f} s "
+            f"{self.limit} {self.label}: {self.ratio:.5g} x the limit at t = {self.t:.3f} s "
             f"(sample {self.index}; {self.count} samples beyond tolerance)"
         )
 

@@ -141,3 +141,23 @@ def test_export_urdf_writes_a_file_yourdfpy_loads(tmp_path, lab):
     robot.update_cfg(dict(zip(JOINT_NAMES, q, strict=True)))
     np.testing.assert_allclose(robot.get_transform("tip", "base_link")[:3, 3], lab.fk(q), atol=1e-9)
     assert _run("crane", "export-urdf", "--crane", "lab").stdout == out.read_text()
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["fk", "--q", "1,2,x,4"], "Error: motionlib fk: Invalid value for '--q': "),
+        (["fk", "--bogus"], "Error: motionlib fk: No such option '--bogus'."),
+        (["crane", "show", "--crane"], "Error: motionlib crane show: Option '--crane' requires an argument."),
+        (["nosuchcommand"], "Error: motionlib: No such command 'nosuchcommand'."),
+        (["--bogus"], "Error: motionlib: No such option '--bogus'."),
+        (["view", "x.h5", "--rate", "nan"], "Error: motionlib view: Invalid value for '--rate': 'nan' is not a finite"),
+    ],
+)
+def test_option_errors_are_one_line(args, message):
+    """Issue 24 item 6: usage errors were four lines (Usage / Try / blank / Error); the README promises one.
+    Exit status 2 (a usage error), the line names the command and says where help is."""
+    result = CliRunner().invoke(cli, args, prog_name="motionlib")
+    assert result.exit_code == 2, result.output
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith(message), result.stderr
+    assert "--help" in result.stderr

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -124,7 +126,7 @@ def test_scripted_operator_in_traded_mode(library, tmp_path: Path):
         (["--target", "9,9,9"], "no library end point within"),
         (["--target", "1,2"], "--target: expected 3"),
         (["--target", "0,0,1", "--mode", "M7"], "Invalid value for '--mode'"),
-        (["--target", "0,0,1", "--operator", "wizard"], "operator: expected passive"),
+        (["--target", "0,0,1", "--operator", "wizard"], "Invalid value for '--operator': expected passive"),
     ],
 )
 def test_bad_input_is_one_line(library, args, message):
@@ -132,6 +134,29 @@ def test_bad_input_is_one_line(library, args, message):
     code, out = _run("execute", str(path), *args)
     assert code != 0 and message in out
     assert "Traceback" not in out
+
+
+#: Imports a CliRunner call of ``execute --operator novce`` and prints its exit code, output and which of
+#: the heavy modules (the runtime, the library reader, h5py) it loaded.
+_EARLY_REJECT = """
+import json, sys
+from click.testing import CliRunner
+from motionlib_cli.main import cli
+res = CliRunner().invoke(cli, ["execute", sys.argv[1], "--target", "1,1,1", "--operator", "novce"])
+heavy = sorted(m for m in ("motionlib.sim.execute", "motionlib.library.store", "h5py") if m in sys.modules)
+print(json.dumps([res.exit_code, res.stderr, heavy]))
+"""
+
+
+def test_bad_operator_is_rejected_by_the_option_before_loading_anything_heavy(tmp_path: Path):
+    """Issue 24 item 17: ``--operator novce`` failed only after the runtime was imported (21 s on a loaded machine)."""
+    proc = subprocess.run([sys.executable, "-c", _EARLY_REJECT, str(tmp_path / "lib.h5")], capture_output=True,
+                          text=True, timeout=120, check=True)
+    code, err, heavy = json.loads(proc.stdout)
+    assert code == 2 and heavy == [], (code, err, heavy)
+    lines = [line for line in err.splitlines() if line.startswith("Error")]
+    assert len(lines) == 1 and lines[0].endswith(": Invalid value for '--operator': expected passive, expert, novice "
+                                                 "or a stick script .csv, got 'novce' (cli execute --help)"), err
 
 
 def test_missing_library(tmp_path: Path):

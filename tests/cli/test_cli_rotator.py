@@ -6,6 +6,8 @@ import json
 import math
 from pathlib import Path
 
+import click
+import pytest
 from click.testing import CliRunner
 from motionlib_cli.main import cli
 
@@ -39,3 +41,31 @@ def test_plan_rejects_a_fifth_start_value_for_a_crane_without_rotator():
     assert result.exit_code != 0 and isinstance(result.exception, SystemExit)
     lines = result.output.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.output and "--start" in lines[0]
+
+
+def test_log_yaw_rejects_non_finite_values_before_planning():
+    """Issue 24 item 2: NaN passed the option's range (exit 70 on a rotator crane, accepted on ``lab``)."""
+    for crane in (CRANE, "lab"):
+        for value in ("nan", "inf", "-inf", "NaN"):
+            result = CliRunner().invoke(cli, ["plan", "--crane", crane, "--scene", SCENE, "--start", "target-center",
+                                              "--goal", "target-center", f"--log-yaw={value}"])
+            assert result.exit_code == 2, (crane, value, result.exit_code, result.output[-500:])
+            errors = [line for line in result.stderr.splitlines() if line.startswith("Error")]
+            assert len(errors) == 1 and "'--log-yaw'" in errors[0] and "finite" in errors[0], result.stderr
+            assert result.stdout == "", result.stdout
+
+
+def test_every_float_range_option_refuses_nan():
+    """No command's FloatRange option accepts NaN (it passes every comparison of click.FloatRange)."""
+    ctx = click.Context(cli)
+    checked = []
+    for name in cli.list_commands(ctx):
+        command = cli.get_command(ctx, name)
+        commands = command.commands.values() if isinstance(command, click.Group) else [command]
+        for sub in commands:
+            for param in sub.params:
+                if isinstance(param.type, click.FloatRange):
+                    with pytest.raises(click.BadParameter, match="finite"):
+                        param.type.convert("nan", param, ctx)
+                    checked.append(f"{sub.name} {param.opts[0]}")
+    assert "plan --log-yaw" in checked and len(checked) >= 8, checked

@@ -20,6 +20,7 @@ from click.testing import CliRunner
 from motionlib_cli.main import cli
 
 from motionlib.control.controller import SharedController
+from motionlib.control.runlog import RunLog
 from motionlib.errors import InputError
 from motionlib.experiment import (
     PANEL,
@@ -42,6 +43,7 @@ from motionlib.experiment.stats import (
     time_table,
     transition_table,
 )
+from motionlib.library.store import Library
 from motionlib.model.scene import Scene
 from motionlib.sim.operators import OPERATOR_PRESETS, Observation, SimulatedOperator
 
@@ -311,8 +313,22 @@ def tiny(tmp_path_factory) -> tuple[Path, Path]:
     return spec, status.path
 
 
-def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path):
+class _KeptRunLog(RunLog):
+    """A :class:`RunLog` that keeps every instance (the CLI writes no run logs; the test reads them)."""
+
+    made: list[RunLog] = []
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self.made.append(self)
+
+
+def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path, monkeypatch):
     spec, lib = tiny
+    import motionlib.experiment.series as series_module
+
+    monkeypatch.setattr(series_module, "RunLog", _KeptRunLog)  # --workers 1 runs the series in this process
+    _KeptRunLog.made.clear()
     out = lib.parent  # where the fixture built it: the CLI must reuse it
     args = ["experiment", "log-loading", "--operators", "O1", "--modes", "M4,M6", "--series", "1", "--cycles", "1",
             "--workers", "1", "--spec", str(spec), "--out", str(out), "--json"]
@@ -339,6 +355,8 @@ def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path):
         assert float(r[col["total_jerk"]]) > 0.0
     trows = (out / "transitions.csv").read_text().strip().splitlines()
     theader = trows[0].split(",")
+    crane = Library.open(lib).crane
+    logs = {mode: log.arrays() for mode, log in zip(("M4", "M6"), _KeptRunLog.made, strict=True)}  # series order
     for r in trows[1:]:
         v = dict(zip(theader, r.split(","), strict=True))
         assert float(v["t_anchor_s"]) <= float(v["t_switch_s"])
@@ -347,7 +365,14 @@ def test_small_configuration_end_to_end_through_the_cli(tiny, tmp_path: Path):
         for what in ("acceleration_m_s2", "jerk_m_s3"):
             assert float(v[f"excess_{what}"]) == pytest.approx(  # (the CSV rounds to a few digits)
                 max(0.0, float(v[f"peak_{what}"]) - float(v[f"auto_peak_{what}"])), rel=2e-3, abs=2e-3)
-        assert float(v["velocity_step_m_s"]) >= 0.0
+        # the commanded tip velocity's step at the first sample at or after the switch, from the logged q and
+        # qd_cmd: the finite difference of the forward kinematics along the command's change (CSV: 6 digits)
+        arr = logs[v["mode"]]
+        k = int(np.searchsorted(arr["t"], float(v["t_switch_s"]) - 1e-3))
+        assert abs(arr["t"][k] - float(v["t_switch_s"])) < 1e-3
+        dq, h = arr["qd_cmd"][k] - arr["qd_cmd"][k - 1], 1e-6
+        fd = (crane.fk(arr["q"][k] + h * dq) - crane.fk(arr["q"][k] - h * dq)) / (2 * h)
+        assert float(v["velocity_step_m_s"]) == pytest.approx(np.linalg.norm(fd), rel=2e-5, abs=1e-9)
     data = json.loads((out / "experiment.json").read_text())
     assert set(data["table1"]) == {"O1 M4", "O1 M6"} and data["reference_total_jerk_m2_s5"] is None
     report = (out / "report.md").read_text()

@@ -18,7 +18,7 @@ from click.testing import CliRunner
 from motionlib_cli.main import cli
 
 from motionlib import Library
-from motionlib.errors import InputError, LibraryFileError
+from motionlib.errors import InputError, LibraryFileError, NoSelectionError
 from motionlib.fileio import seal_hdf5, sealed_hdf5_output
 from motionlib.library.selection import DEFAULT_START_WEIGHTS
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter, entry_id
@@ -555,3 +555,56 @@ def test_cli_select_does_not_import_the_planner_stack(synthetic):
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True).stdout
     assert '"candidates"' in out and "HEAVY []" in out
+
+
+def test_select_skips_an_entry_whose_stored_q_holds_nan(synthetic, tmp_path):
+    """Issue 24 item 7: the index is fine, the best row's stored ``q`` holds a NaN (re-sealed): ``select`` offered
+    it (it reads only the index) and ``execute`` refused it. It is skipped now, with the reason."""
+    path = tmp_path / "damaged.h5"
+    shutil.copy(synthetic[0], path)
+    lib = Library.open(path)
+    target = lib.end_p[3] + 0.05
+    ranked = lib.select(target, L1=1.5, max_candidates=len(lib)).indices.tolist()  # index only: the reference
+    assert len(ranked) > 6
+    bad = ranked[0]
+    with h5py.File(path, "r+") as f:
+        f[f"trajectories/{entry_id(lib.entry[bad])}/q"][5, 1] = np.nan
+    seal_hdf5(path)
+    lib = Library.open(path)
+    assert lib.select(target, L1=1.5).indices[0] == bad  # the index still offers it
+    with pytest.raises(LibraryFileError) as refused:
+        lib.trajectory(bad)
+    assert str(path) in str(refused.value)
+
+    args = ["select", str(path), "--target", ",".join(map(str, target)), "--l1", "1.5"]
+    result = CliRunner().invoke(cli, [*args, "--json"])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    assert [c["index"] for c in out["candidates"]] == ranked[1:6]
+    assert out["skipped"] == [{"index": bad, "entry": int(lib.entry[bad]), "reason": str(refused.value)}]
+    text = CliRunner().invoke(cli, args)
+    assert text.exit_code == 0 and f"skipped index {bad} (entry {int(lib.entry[bad])}): {refused.value}" in text.output
+
+    checked = lib.select_checked(target, L1=1.5, max_candidates=1)  # what execute runs: the next row, readable
+    assert checked.indices.tolist() == [ranked[1]] and checked.skipped == ((bad, str(refused.value)),)
+    lib.trajectory(ranked[1])
+    only = lib.select_checked(lib.end_p[bad], L1=1e-9)  # nothing else ends there: no usable entry
+    assert only.status.value == "no_usable_entry" and str(refused.value) in only.message
+    with pytest.raises(NoSelectionError, match="acceptable, but the trajectory of each one checked is refused"):
+        only.raise_for_status()
+
+
+def test_inconsistent_index_is_a_file_error_naming_the_file(synthetic, tmp_path):
+    """Issue 24 item 6: approach_p whose last point is not end_p (re-sealed) gave 'approach_p: last point is not
+    end_p' without the file; select (API and CLI) now names the file."""
+    path = tmp_path / "approach.h5"
+    shutil.copy(synthetic[0], path)
+    with h5py.File(path, "r+") as f:
+        f["index/approach_p"][4, -1, 2] += 0.5
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=rf"^{path}: corrupt library: /index: approach_p: last point is not "
+                                               r"end_p \(1 mm\) in row 4$"):
+        Library.open(path).select([3.0, 0.0, 1.0])
+    result = CliRunner().invoke(cli, ["select", str(path), "--target", "3,0,1"])
+    assert result.exit_code == 1 and result.output.startswith(f"Error: {path}: corrupt library") and \
+        result.output.count("\n") == 1, result.output

@@ -167,6 +167,34 @@ def test_unsealed_file_is_refused_with_a_way_out(tmp_path):
     assert result.returncode == 1 and result.stderr.count("\n") == 1 and "without motionlib's seal" in result.stderr
 
 
+def test_resealed_run_log_with_scalar_event_times_is_a_file_error(tmp_path):
+    """Issue 24 item 1: ``events/t`` replaced by a scalar and re-sealed: a file error naming the file and
+    the key, and one line from ``analyze`` and ``view`` (was IndexError inside the message, exit 70)."""
+    from click.testing import CliRunner
+    from motionlib_cli.main import cli
+
+    from motionlib.control.control_types import Event
+    from motionlib.control.runlog import COLUMNS, RunLog, write_runlog
+    from motionlib.model.kinematics import Crane
+
+    crane = Crane.load("lab")
+    log = RunLog(events=[Event(0.0, "motion_start"), Event(0.01, "handover")])
+    rows = np.zeros((10, len(COLUMNS)))
+    rows[:, 0] = np.arange(10) / 200.0
+    log.extend(rows)
+    path = write_runlog(tmp_path / "run.h5", log, crane)
+    with h5py.File(path, "r+") as f:
+        del f["events/t"]
+        f["events"].create_dataset("t", data=1.0)
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=rf"^{path}: events/t: expected a 1-D array of finite times, got shape"):
+        read_runlog(path)
+    for args in (["analyze", str(path), "--crane", "lab"], ["view", str(path), "-o", str(tmp_path / "v.html")]):
+        result = CliRunner().invoke(cli, args)
+        assert result.exit_code == 1, (args, result.exit_code, result.output[-800:])
+        assert result.stderr.count("\n") == 1 and f"{path}: events/t: expected" in result.stderr, result.stderr
+
+
 # ------------------------------------------------------------------ damaged files, read in a child
 def _damaged(src: Path, out_dir: Path, name: str) -> list[Path]:
     """Copies of ``src``: bytes changed in the attribute region, truncated, extended, seal altered, random damage."""

@@ -173,3 +173,13 @@ def test_verify_samples_reports_each_violated_component_at_its_worst_sample():
 def test_bad_inputs_raise_input_error(make):
     with pytest.raises(InputError):
         make()
+
+
+def test_violation_of_a_huge_value_is_a_short_message():
+    """Issue 24 item 6: a damaged sample of 1e308 gave a ratio printed with 300 digits (``:.4f``)."""
+    t = np.linspace(0.0, 1.0, 5)
+    q, qd, qdd = np.zeros((5, 4)), np.zeros((5, 4)), np.zeros((5, 4))
+    q[2, 1] = 1e308
+    (v,) = verify_samples(t, q, qd, qdd, [JointPositionLimit(-np.ones(4), np.ones(4))])
+    assert v.ratio == 1e308 and v.index == 2
+    assert str(v) == "joint_position boom: 1e+308 x the limit at t = 0.500 s (sample 2; 1 samples beyond tolerance)"

@@ -128,6 +128,23 @@ def test_missing_key(tmp_path, forwarder_data, key):
     assert f"{key}: required key is missing" in message
 
 
+@pytest.mark.parametrize(
+    ("key", "typo"),
+    [("kinematics.boom_length", "boom_lenght"), ("joints", "joint"),
+     ("joints.jib.acceleration_max", "acceleraton_max")],
+)
+def test_misspelt_key_is_named_with_the_missing_one(tmp_path, forwarder_data, key, typo):
+    """Issue 24 item 17: a misspelling that replaces a required key names both keys (was: only the missing one)."""
+    data = copy.deepcopy(forwarder_data)
+    *parents, last = key.split(".")
+    node = data
+    for name in parents:
+        node = node[name]
+    node[typo] = node.pop(last)
+    message = _load_error(_write(tmp_path, data))
+    assert f"{key}: required key is missing" in message and repr(typo) in message, message
+
+
 def test_hydraulics_are_optional(tmp_path, forwarder_data):
     model = load_crane_model(_write(tmp_path, _delete(forwarder_data, "hydraulics")))
     assert model.pump_flow is None and model.displacement is None

@@ -125,7 +125,12 @@ def test_csv_round_trip(tmp_path):
         ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1\n", r":3: expected 5 values, got 4"),
         ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,nan\n", "q4: expected a finite number"),
         ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0,0,1,-1,0.5\n", "strictly increasing"),
-        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0.1,0,9,-1,0.5\n", "q2 = 9.0000 at t = 0.1 s is outside"),
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0.1,0,9,-1,0.5\n", "q2 = 9 at t = 0.1 s is outside"),
+        # issue 24 item 6: a huge value in a short message; header errors name the recording and the key
+        ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n0.1,0,1e308,-1,0.5\n", r"q2 = 1e\+308 at t = 0.1 s is"),
+        ("# crane: harvester\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n", r"bad.csv: header key 'crane': unknown crane 'harv"),
+        ("# crane: forwarder\n# scene: nowhere.yaml\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n",
+         r"bad.csv: header key 'scene': .*nowhere.yaml"),
         ("# crane: forwarder\nt,q1,q2,q3,q4,grapple\n0,0,1,-1,0.5,shut\n", "grapple: expected close, open"),
         ("# crane: forwarder\nt,q1,q2,q3,q4,grapple\n0,0,1,-1,0.5,close\n0.1,0,1,-1,0.5,close\n", "two 'close'"),
         ("# crane: forwarder\nt,q1,q2,q3,q4\n0,0,1,-1,0.5\n5,0,1,-1,0.5\n", "a gap of 5.000 s"),
