@@ -92,6 +92,7 @@ def execute(
     report: dict[str, Any] = {
         **run.summary.to_dict(),
         "settled": run.settled,
+        "status": run.status.value,
         "mode": run.mode.value,
         "operator": operator_spec,
         "library_row": row,
@@ -104,6 +105,8 @@ def execute(
     }
     if vision is not None:
         report["vision_target"] = run.log.attrs["vision_target"]
+        report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
+        report["vision_seen_fraction"] = run.vision_seen_fraction
     if accommodation is not None:
         report["peak_contact_force_n"] = run.loop.diagnostics["peak_contact_force_n"]
     if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
@@ -154,12 +157,16 @@ def _print_report(s: dict[str, Any]) -> None:
     click.echo(f"  peak acceleration {_fmt(s['peak_acceleration_m_s2'], 'm/s^2', 2)}, "
                f"peak jerk {_fmt(s['peak_jerk_m_s3'], 'm/s^3', 1)}")
     click.echo(f"  max deviation     {_fmt(s['max_deviation_m'], 'm')}")
-    click.echo(f"  handover          {_fmt(s['handover_time_s'], 's', 2)}; arrival {_fmt(s['arrival_time_s'], 's', 2)}")
+    arrival = _fmt(s["arrival_time_s"], "s", 2)
+    if s["status"] == "target_not_seen":  # the motion's arrival (e.g. at the trajectory's end) is not over the target
+        arrival = f"none over the vision target (never seen; the motion ended at {arrival})"
+    click.echo(f"  handover          {_fmt(s['handover_time_s'], 's', 2)}; arrival {arrival}")
     click.echo(f"  peak swing        {_fmt(s['peak_swing_rad'], 'rad')}; "
                f"residual {_fmt(s['residual_swing_rad'], 'rad')}")
     click.echo(f"  overshoot         {_fmt(s['overshoot_m'], 'm')} past the end point")
     if "vision_target" in s:
-        click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m")
+        click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m, seen in "
+                   f"{s['vision_seen_steps']} of {s['vision_steps']} steps ({100 * s['vision_seen_fraction']:.0f} %)")
     if "peak_contact_force_n" in s:
         click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground and obstacles)")
     if "log_yaw_end_rad" in s:

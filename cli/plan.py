@@ -73,10 +73,11 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
     assert traj is not None  # raise_for_status
     if output:
         save_plan(output, traj, crane, scene)
+    plots: list[str] = []
     if plot_dir:
         from motionlib.viz.plan_plots import plot_plan
 
-        plot_plan(plot_dir, crane, scene, traj)
+        plots = [str(p) for p in plot_plan(plot_dir, crane, scene, traj)]
     info = traj.info
     summary = {
         "duration_s": traj.duration_s,
@@ -98,6 +99,7 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
         "stage_times_s": {name: stage.time_s for name, stage in result.stages.items()},
         "stages": {name: stage.status for name, stage in result.stages.items()},
         "output": str(output) if output else None,
+        "plots": plots,
     }
     if traj.rotator is not None:  # the grapple rotator: the carried log's yaw q1 + q5 at the end
         summary["log_yaw_end_rad"] = float(crane.log_yaw(traj.full_samples()[0][-1]))
@@ -127,3 +129,5 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
     click.echo("  stage times: " + ", ".join(f"{k} {v * 1000:.0f} ms" for k, v in summary["stage_times_s"].items()))
     if output:
         click.echo(f"  written to {output}")
+    if plots:
+        click.echo(f"  figures: {', '.join(plots)}")

@@ -105,6 +105,10 @@ class VisionSource(RateSource):
     ----------
     visible : bool
         Whether the last step had a current measurement (no measurement: zero rate).
+    steps, seen_steps : int
+        Steps the source ran (:meth:`rate`: while the automation is in control) since it was made or
+        :meth:`reset`, and those of them with a current measurement: how often the camera saw the
+        target (``seen_steps == 0``: never, whatever ended the motion).
     """
 
     role = "automation"
@@ -140,6 +144,7 @@ class VisionSource(RateSource):
         self.arrive_tol = check_scalar(arrive_tol_m, "arrive_tol_m", gt=0.0)
         self.arrive_speed = check_scalar(arrive_speed_m_s, "arrive_speed_m_s", gt=0.0)
         self.visible = False
+        self.steps = self.seen_steps = 0
 
     def rate(self, ctx: StepContext) -> Vec3:
         cam = self.camera
@@ -148,6 +153,8 @@ class VisionSource(RateSource):
             cam.capture(ctx.t, ctx.p, q1)
         frame = cam.latest(ctx.t)
         self.visible = frame is not None
+        self.steps += 1
+        self.seen_steps += self.visible
         if frame is None:
             self.dist_end_m = math.inf
             self._errors.clear()
@@ -177,3 +184,4 @@ class VisionSource(RateSource):
     def reset(self) -> None:
         self._errors.clear()
         self._last_frame = None
+        self.steps = self.seen_steps = 0

@@ -59,6 +59,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from ..checks import check_scalar
 from ..errors import InputError, LibraryFileError, PlanningError
 from ..fileio import atomic_output, decode_attr, hdf5_errors, open_sealed, read_array, sealed_hdf5_output
 from ..planning.planner import PLANNER_VERSION
@@ -397,30 +398,55 @@ def _run_local(setup: BuildSetup, todo: list[Entry], workers: int) -> Iterator[R
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-def _run_dask(setup: BuildSetup, todo: list[Entry], address: str, digest: str) -> Iterator[Result]:
-    from dask.distributed import Client, as_completed
+#: A Dask scheduler address :func:`build_library` accepts: ``tcp://HOST:PORT`` or ``tls://HOST:PORT``
+#: (HOST a name, an IPv4 address or a bracketed IPv6 address; PORT 1..65535).
+SCHEDULER_ADDRESS = re.compile(r"(tcp|tls)://(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9][A-Za-z0-9.\-_]*):([0-9]{1,5})")
+#: Default time (s) to reach the Dask scheduler and, again, to wait for its first worker.
+SCHEDULER_TIMEOUT_S = 20.0
+
+
+def check_scheduler_address(address: Any) -> str:
+    """``address`` if it has the form of :data:`SCHEDULER_ADDRESS`, else InputError (nothing is contacted)."""
+    match = SCHEDULER_ADDRESS.fullmatch(address) if isinstance(address, str) else None
+    if match is None or not 1 <= int(match.group(3)) <= 65535:
+        raise InputError(
+            f"scheduler: expected a Dask scheduler address tcp://HOST:PORT (PORT 1-65535), got {address!r}"
+        )
+    return address
+
+
+@contextlib.contextmanager
+def _dask_client(address: str, timeout_s: float) -> Iterator[Any]:
+    """A Dask client connected to ``address`` with at least one worker; InputError within about ``2 timeout_s``."""
+    from dask.distributed import Client
 
     try:
-        client = Client(address, timeout="20s", set_as_default=False)
-    except OSError as exc:
-        raise InputError(f"cannot connect to the Dask scheduler at {address}: {exc}") from exc
+        client = Client(address, timeout=f"{timeout_s}s", set_as_default=False)
+    except (OSError, ValueError) as exc:  # refused, unreachable, timed out (TimeoutError is an OSError)
+        raise InputError(f"cannot connect to the Dask scheduler at {address} within {timeout_s:g} s: {exc}") from exc
     with client:
         try:
-            client.wait_for_workers(1, timeout=60)
+            client.wait_for_workers(1, timeout=timeout_s)
         except TimeoutError as exc:
-            raise InputError(f"no Dask worker connected to the scheduler at {address} within 60 s") from exc
-        setup_future = client.scatter(setup, broadcast=True, hash=False)
-        futures = {
-            client.submit(plan_entry, setup_future, e, key=f"motionlib-plan-{digest[:16]}-{entry_id(e.index)}"): e
-            for e in todo
-        }
-        for fut in as_completed(futures, loop=client.loop):
-            entry = futures[fut]
-            if fut.status == "error":
-                yield entry, fut.exception()
-            else:
-                yield entry, fut.result()
-            fut.release()
+            raise InputError(f"no Dask worker connected to the scheduler at {address} within {timeout_s:g} s") from exc
+        yield client
+
+
+def _run_dask(setup: BuildSetup, todo: list[Entry], client: Any, digest: str) -> Iterator[Result]:
+    from dask.distributed import as_completed
+
+    setup_future = client.scatter(setup, broadcast=True, hash=False)
+    futures = {
+        client.submit(plan_entry, setup_future, e, key=f"motionlib-plan-{digest[:16]}-{entry_id(e.index)}"): e
+        for e in todo
+    }
+    for fut in as_completed(futures, loop=client.loop):
+        entry = futures[fut]
+        if fut.status == "error":
+            yield entry, fut.exception()
+        else:
+            yield entry, fut.result()
+        fut.release()
 
 
 # =================================================================== build
@@ -489,6 +515,7 @@ def build_library(
     scheduler: str | None = None,
     resume: bool = False,
     progress: Progress | None = None,
+    scheduler_timeout_s: float = SCHEDULER_TIMEOUT_S,
 ) -> BuildSummary:
     """Build the library of ``spec`` into ``output`` (see the module docstring).
 
@@ -500,11 +527,15 @@ def build_library(
     workers : int, optional
         Local worker processes (default: every core this process may use); ignored with ``scheduler``.
     scheduler : str, optional
-        Address of a Dask distributed scheduler (``tcp://host:port``); the entries are planned on its workers.
+        Address of a Dask distributed scheduler (``tcp://host:port``, :data:`SCHEDULER_ADDRESS`); the
+        entries are planned on its workers. The address is checked, the scheduler reached and a worker
+        awaited before anything is written, so a bad or unreachable scheduler leaves no ``<output>.parts``.
     resume : bool
         Finish an interrupted build from its checkpoints.
     progress : Progress, optional
         Default :func:`motionlib.progress.make_progress`.
+    scheduler_timeout_s : float
+        Time (s) to reach the scheduler, and again to wait for its first worker.
 
     Returns
     -------
@@ -513,7 +544,8 @@ def build_library(
     Raises
     ------
     InputError
-        The parts directory exists without ``resume``, or is in use; no Dask scheduler or workers.
+        The parts directory exists without ``resume``, or is in use; a malformed scheduler address,
+        no Dask scheduler or workers within ``scheduler_timeout_s``.
     LibraryFileError
         The checkpoints belong to a different spec.
     """
@@ -523,7 +555,28 @@ def build_library(
         raise InputError(f"{output}: is a directory, expected a library file name")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
         raise InputError(f"workers: expected an integer >= 1, got {workers!r}")
-    progress = progress or make_progress("building")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
+        check_scalar(scheduler_timeout_s, "scheduler_timeout_s", gt=0.0)
+    with contextlib.ExitStack() as stack:  # the Dask client, if any, is connected before the parts exist
+        client = stack.enter_context(_dask_client(scheduler, scheduler_timeout_s)) if scheduler is not None else None
+        summary = _build(
+            spec, output, workers, scheduler, client, resume, progress or make_progress("building"), t_start
+        )
+    return summary
+
+
+def _build(
+    spec: LibrarySpec,
+    output: Path,
+    workers: int | None,
+    scheduler: str | None,
+    client: Any,
+    resume: bool,
+    progress: Progress,
+    t_start: float,
+) -> BuildSummary:
+    """:func:`build_library` once its arguments are checked and the Dask ``client`` (or None) is connected."""
     entries = spec.entries()
     digest = spec.digest
     parts = parts_dir_for(output)
@@ -537,8 +590,8 @@ def build_library(
         try:
             if todo:
                 results = (
-                    _run_dask(setup, todo, scheduler, digest)
-                    if scheduler
+                    _run_dask(setup, todo, client, digest)
+                    if client is not None
                     else _run_local(setup, todo, min(n_workers, len(todo)))
                 )
                 for entry, outcome in results:

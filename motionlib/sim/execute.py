@@ -116,6 +116,9 @@ class RunStatus(enum.Enum):
 
     SETTLED = "settled"  # tip at rest, grapple swing below LoopOptions.settle_swing_rad, no automation, operator done
     TIME_LIMIT = "time_limit"  # the time limit was reached first
+    # a vision run (ExecuteOptions.vision) whose camera never saw its target: whatever arrival or settling the
+    # run reports (e.g. the path tracker's at the trajectory's end) is not one over the target
+    TARGET_NOT_SEEN = "target_not_seen"
 
 
 @dataclass
@@ -126,7 +129,7 @@ class RunResult:
     ----------
     status : RunStatus
     reason : str
-        One line; empty when settled.
+        One line; empty when settled (and, with vision, the camera saw the target).
     summary : RunSummary
         Cycle time, final error, total jerk, peaks, deviation, handover, swing; the residual
         swing, the overshoot past the end point and the settle ratio (cycle time / planned duration).
@@ -141,6 +144,10 @@ class RunResult:
         The operator's target (m, base frame).
     trajectory : Trajectory or None
         The executed trajectory.
+    vision_steps, vision_seen_steps : int or None
+        With vision (``ExecuteOptions.vision``): the control steps the vision source ran (while the
+        automation was in control) and those in which the camera had a current measurement of the
+        target (:class:`~motionlib.control.vision.VisionSource`); None without vision.
     """
 
     status: RunStatus
@@ -152,14 +159,24 @@ class RunResult:
     mode: Mode
     target_p: np.ndarray
     trajectory: Trajectory | None
+    vision_steps: int | None = None
+    vision_seen_steps: int | None = None
 
     @property
     def settled(self) -> bool:
-        return self.status is RunStatus.SETTLED
+        """The run settled before the time limit (tip at rest, grapple swing small)."""
+        return self.loop.settled
+
+    @property
+    def vision_seen_fraction(self) -> float | None:
+        """``vision_seen_steps / vision_steps`` (0 when the source never ran); None without vision."""
+        if self.vision_steps is None or self.vision_seen_steps is None:
+            return None
+        return self.vision_seen_steps / self.vision_steps if self.vision_steps else 0.0
 
     def raise_for_status(self) -> RunResult:
-        """Return self when the run settled, else raise :class:`ExecutionError`."""
-        if not self.settled:
+        """Return self when the status is ``SETTLED``, else raise :class:`ExecutionError` with the reason."""
+        if self.status is not RunStatus.SETTLED:
             raise ExecutionError(self.reason)
         return self
 
@@ -320,4 +337,10 @@ def execute(
     reason = "" if loop.settled else (f"the run had not settled (tip at rest, grapple swing below "
                                        f"{opts.loop.settle_swing_rad:g} rad) after the time limit of "
                                        f"{opts.time_limit_s:g} s")
-    return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory)
+    if vision is not None and vision.seen_steps == 0:
+        status = RunStatus.TARGET_NOT_SEEN
+        unseen = (f"the camera never saw the vision target {log.attrs['vision_target']} (0 of {vision.steps} "
+                  "steps of the vision source): no arrival over it")
+        reason = f"{unseen}; {reason}" if reason else unseen
+    return RunResult(status, reason, summary, log, arrays, loop, mode, target_p, trajectory,
+                     vision.steps if vision is not None else None, vision.seen_steps if vision is not None else None)

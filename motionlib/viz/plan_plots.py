@@ -94,10 +94,11 @@ def path3d_figure(crane: Crane, scene: Scene, traj: Trajectory) -> Figure:
     """The tip path in 3D with the scene's obstacles and the crane at start and end."""
     fig = Figure(figsize=(8, 7))
     ax = fig.add_subplot(projection="3d")
+    ax.computed_zorder = False  # draw in zorder: the tip path over its (often dense) waypoints, as the legend says
     for ob in scene.obstacles:
         _draw_obstacle(ax, ob)
-    ax.plot(*traj.path_tip.T, "r-", lw=2, label="tip path")
-    ax.plot(*traj.waypoints.T, "ko", ms=3, label="waypoints")
+    ax.plot(*traj.waypoints.T, "o", color="0.3", mfc="none", ms=4, mew=0.6, label="waypoints", zorder=2)
+    ax.plot(*traj.path_tip.T, "r-", lw=2, label="tip path", zorder=3)
     for q, style in ((traj.q[0], "g-"), (traj.q[-1], "b-")):
         for cap in crane.link_capsules(q):
             ax.plot(*np.stack([cap.a, cap.b]).T, style, lw=3)

@@ -175,6 +175,8 @@ def test_vision_target_by_point_and_by_name_and_a_bad_name(library):
     summary = json.loads(out)
     assert summary["settled"] and np.allclose(summary["vision_target"], ends[1] - [0.0, 0.0, 0.75])
     assert summary["final_error_m"] < 0.05
+    assert summary["status"] == "settled" and 0 < summary["vision_seen_steps"] <= summary["vision_steps"]
+    assert summary["vision_seen_fraction"] == summary["vision_seen_steps"] / summary["vision_steps"]
     code, out = _run("execute", str(path), "--target", target, "--vision-target", "log-a1", "--time-limit", "2")
     assert code == 0, out
     assert "vision target     0.000, 2.800, 0.100 m" in out  # the log's centre
@@ -184,6 +186,27 @@ def test_vision_target_by_point_and_by_name_and_a_bad_name(library):
     assert len(lines) == 1 and "no point or obstacle 'nosuch'" in lines[0] and "Traceback" not in out
     code, out = _run("execute", str(path), "--target", target, "--vision-gains", "1,1,1")
     assert code != 0 and "--vision-gains needs --vision-target" in out
+
+
+def test_a_vision_target_the_camera_never_sees_is_no_arrival(library, tmp_path: Path):
+    """Issue 24 item 9: a target above the crane is never in the down-looking camera's view; the tracker's
+    arrival at the trajectory's end must not be reported as an arrival over it."""
+    path, ends = library
+    target = ",".join(map(str, ends[1]))
+    log = tmp_path / "run.h5"
+    args = ("execute", str(path), "--target", target, "--vision-target", "3,0,10", "--time-limit", "30")
+    code, out = _run(*args, "--json", "--log", str(log))
+    assert code == 0, out
+    summary = json.loads(out)
+    # reference: the lens is at the grapple, below the tip; the camera sees only targets below the lens
+    assert read_runlog(log)["tip_p"][:, 2].max() < 10.0
+    assert summary["vision_seen_steps"] == 0 and summary["vision_steps"] > 0
+    assert summary["vision_seen_fraction"] == 0.0
+    assert summary["status"] == "target_not_seen" and summary["settled"]
+    code, out = _run(*args)
+    assert code == 0, out
+    assert "arrival none over the vision target (never seen" in out
+    assert f"seen in 0 of {summary['vision_steps']} steps (0 %)" in out
 
 
 def test_accommodation_bounds_the_push_into_the_ground(library, tmp_path: Path):

@@ -11,6 +11,7 @@ import contextlib
 import io
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -290,6 +291,29 @@ def test_dask_cluster_builds_the_same_library(reference, tiny_spec, tmp_path):
     assert summary.n_planned == N_ENTRIES and summary.n_ok == reference[1].n_ok
     assert Library.open(out).metadata("build")["executor"] == f"dask {address}"
     assert content_digest(out) == content_digest(reference[0])
+
+
+@pytest.mark.parametrize(
+    ("address", "message"),
+    [
+        ("nan", "scheduler: expected a Dask scheduler address tcp://HOST:PORT"),
+        ("tcp://127.0.0.1:0", "scheduler: expected a Dask scheduler address tcp://HOST:PORT"),
+        # nothing listens on port 1
+        ("tcp://127.0.0.1:1", "cannot connect to the Dask scheduler at tcp://127.0.0.1:1 within 1 s"),
+    ],
+)
+def test_bad_or_unreachable_scheduler_fails_at_once_and_leaves_no_parts(tiny_spec, tmp_path, address, message):
+    """Issue 24 item 3: one line on stderr, exit 1, no OUT.h5.parts (a plain build afterwards is not refused)."""
+    out = tmp_path / "out.h5"
+    with pytest.raises(InputError, match=re.escape(message)):
+        build_library(LibrarySpec.load(tiny_spec), out, scheduler=address, scheduler_timeout_s=1.0)
+    assert not parts_dir_for(out).exists()
+    # the command in its own process: a failed Client's __del__ must not print a traceback at exit either
+    cmd = [MOTIONLIB, "build", str(tiny_spec), "-o", str(out), "--scheduler", address, "--scheduler-timeout", "1"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.splitlines() == [proc.stderr.strip()] and proc.stderr.startswith(f"Error: {message}")
+    assert not parts_dir_for(out).exists() and not out.exists()
 
 
 def test_rich_progress_on_a_terminal():

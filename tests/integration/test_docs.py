@@ -83,6 +83,47 @@ def test_readme_documentation_links_resolve_and_cover_docs():
     assert {f"docs/{p.name}" for p in DOCS.glob("*.md")} <= linked, "every page in docs/ is linked from the README"
 
 
+def test_readme_links_every_notebook():
+    linked = set(re.findall(r"\]\((notebooks/[^)\s]+\.ipynb)\)", _documentation_section()))
+    assert {f"notebooks/{p.name}" for p in (ROOT / "notebooks").glob("*.ipynb")} <= linked
+
+
+def _command(path: list[str]) -> tuple[click.Command, list[str]]:
+    """The click command a README command line names (e.g. ``experiment log-loading``), and the rest of the line."""
+    command: click.Command = cli
+    while path and isinstance(command, click.Group):
+        sub = command.get_command(click.Context(command), path[0])
+        if sub is None:
+            break
+        command, path = sub, path[1:]
+    return command, path
+
+
+def test_readme_command_options_exist():
+    """Every option the README's command table shows is an option of that command (issue 24 item 16)."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    table = readme.split("## Commands\n", 1)[1].split("\n## ", 1)[0]
+    lines = re.findall(r"^\| `motionlib ([^`]+)` \|", table, re.M)
+    assert len(lines) >= 15
+    for line in lines:
+        command, rest = _command(line.replace("\\|", "|").split())
+        known = {opt for param in command.params for opt in (*param.opts, *param.secondary_opts)}
+        shown = re.findall(r"(?<![\w-])(--?[A-Za-z][\w-]*)", " ".join(rest))
+        assert shown, line
+        assert set(shown) <= known, f"motionlib {line}: {sorted(set(shown) - known)} not options of {command.name}"
+
+
+def test_library_format_snippets_read_the_quick_start_library():
+    """docs/library-format.md's examples open the file the README's quick start builds (run from the root)."""
+    built = re.findall(r"motionlib build \S+ -o (\S+\.h5)", (ROOT / "README.md").read_text(encoding="utf-8"))
+    assert built
+    text = (DOCS / "library-format.md").read_text(encoding="utf-8")
+    snippets = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(snippets) == 2
+    for snippet in snippets:
+        assert set(re.findall(r"[\"']([^\"']+\.h5)[\"']", snippet)) == {built[0]}, snippet
+
+
 # ------------------------------------------------------------------ model-your-own-crane guide
 GUIDE = DOCS / "model-your-own-crane.md"
 
@@ -111,6 +152,9 @@ def test_model_your_own_crane_guide_works(tmp_path, monkeypatch):
             assert args[0] == "python", command
             done = subprocess.run([sys.executable, *args[1:]], capture_output=True, text=True, timeout=60)
             assert done.returncode == 0, f"{command}:\n{done.stderr}"
+            for printed in done.stdout.splitlines():  # a folder or file the guide shows exists (issue 24 item 16)
+                if printed.startswith("/"):
+                    assert Path(printed).exists(), f"{command} prints {printed}, which does not exist"
     for produced in ("my-crane.urdf", "my-plan.h5", "my-plan.html"):
         assert (tmp_path / produced).is_file()
 
