@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import click
 
+from .options import FiniteFloatRange
+
 
 @click.command()
 @click.argument("spec_file", type=click.Path(dir_okay=False))
@@ -14,7 +16,7 @@ import click
 @click.option("--scheduler", help="Dask distributed scheduler address (tcp://HOST:PORT): plan on its workers.")
 @click.option(
     "--scheduler-timeout",
-    type=click.FloatRange(min=0.0, min_open=True, max=3600.0),
+    type=FiniteFloatRange(min=0.0, min_open=True, max=3600.0),
     default=20.0,
     show_default=True,
     metavar="SECONDS",
