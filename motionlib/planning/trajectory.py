@@ -24,11 +24,12 @@ import h5py
 import numpy as np
 
 from ..checks import rounded
-from ..errors import LibraryFileError
+from ..errors import InputError, LibraryFileError
 from ..fileio import decode_attr, encode_attr, hdf5_errors, open_sealed, read_array, sealed_hdf5_output
 from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models, embedding_attrs
 from ..model.kinematics import Crane
 from ..model.scene import Scene
+from .spline import TipSpline
 
 TRAJECTORY_SCHEMA = "motionlib.trajectory"
 #: 2 added ``path_source``, ``baseline_jointspace_s`` and ``lower_bound_s``; version-1 files read with
@@ -289,6 +290,13 @@ _ARRAYS = {
 _ROTATOR_ARRAYS = {"rotator/samples": "rotator", "rotator/control_points": "rotator_control_points"}
 
 
+#: Largest offset (m) of a stored tip-path sample from the stored spline: they are the same curve (the planner
+#: stores the spline's own samples, offset 0 to rounding).
+PATH_ON_SPLINE_TOL_M = 1e-3
+#: Largest distance (m) of the joint samples' first and last tip from the path's ends (the planner's: < 1e-12 m;
+#: a path given to :meth:`~motionlib.planning.planner.Planner.plan_along` starts where its start configuration is).
+PATH_ENDS_TOL_M = 0.01
+
 #: Longest trajectory read (samples): 10^7 samples at 200 Hz are 14 hours of motion.
 MAX_SAMPLES = 10_000_000
 
@@ -361,9 +369,12 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
     Shapes agree (``t`` (N,), N >= 2; ``q``, ``qd``, ``qdd`` (N, 4); ``path_tip`` (M, 3)
     with ``path_s`` (M,); ``waypoints`` (n, 3); ``spline_coefficients`` (4, m - 1, 3) with
     ``spline_breakpoints`` (m,)); every value is finite; ``t`` starts at 0 and strictly
-    increases; ``info.duration_s`` is ``t[-1]``; ``info.start_q`` is ``q[0]``. With
-    ``crane``, every sample keeps the crane's position, velocity, acceleration and pump
-    limits within the verifier's 1 % tolerance.
+    increases; ``info.duration_s`` is ``t[-1]``; ``info.start_q`` is ``q[0]``; the stored tip
+    path lies on the stored spline (``path/tip`` = spline(``path/s``) within
+    :data:`PATH_ON_SPLINE_TOL_M`), so finite but absurd path values (a 50 m or 1e308 coefficient)
+    are refused like NaN. With ``crane``, every sample keeps the crane's position, velocity,
+    acceleration and pump limits within the verifier's 1 % tolerance, and the joint samples'
+    tip starts and ends on the path (within :data:`PATH_ENDS_TOL_M`).
 
     Raises
     ------
@@ -404,6 +415,14 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
                  f"{None if r is None else r.shape} and {None if c is None else c.shape}")
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(c))):
             fail("rotator holds a non-finite value")
+    try:
+        spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
+    except InputError as exc:
+        fail(f"path/spline: {exc}")
+    with np.errstate(all="ignore"):  # a 1e308 coefficient overflows: it is an offset of inf
+        off = float(np.max(np.abs(spline(traj.path_s) - traj.path_tip)))
+    if not off <= PATH_ON_SPLINE_TOL_M:
+        fail(f"path/tip is not on path/spline (off by {off:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
     start = np.asarray(traj.info.start_q, dtype=np.float64)
     if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
         fail(f"q[0] {rounded(traj.q[0])} differs from start_q {rounded(start)}")
@@ -416,6 +435,10 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
             violations = verify_samples(traj.t, q, qd, qdd, limits_for(crane, with_rotator=full), tol=0.01)
         if violations:
             fail(f"outside the limits of crane {crane.name!r}: {violations[0]}")
+        for name, q_k, p_k in (("start", traj.q[0], traj.path_tip[0]), ("end", traj.q[-1], traj.path_tip[-1])):
+            gap = float(np.linalg.norm(crane.fk(q_k) - p_k))
+            if not gap <= PATH_ENDS_TOL_M:
+                fail(f"the joint samples' tip is {gap:.3g} m from the path's {name} (expected <= {PATH_ENDS_TOL_M:g} m)")
 
 
 def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) -> None:

@@ -195,6 +195,25 @@ def test_resealed_run_log_with_scalar_event_times_is_a_file_error(tmp_path):
         assert result.stderr.count("\n") == 1 and f"{path}: events/t: expected" in result.stderr, result.stderr
 
 
+@pytest.mark.parametrize("value", [50.0, 1e308])
+def test_resealed_plan_with_an_absurd_finite_spline_value_is_refused(fixtures, tmp_path, value):
+    """Issue 24 item 4: a finite but absurd stored spline coefficient (50 m, 1e308), re-sealed, is refused
+    like NaN: the stored tip path no longer lies on the spline (it was read and executed before)."""
+    from motionlib.planning.trajectory import load_plan
+
+    path = tmp_path / "plan.h5"
+    path.write_bytes(fixtures.plan.read_bytes())
+    assert load_plan(path).duration_s > 0.0  # the undamaged copy reads
+    with h5py.File(path, "r+") as f:
+        coefficients = f["path/spline_coefficients"][...]
+        coefficients[3, 0, 0] = value  # the constant term of the first piece: the path's start point, x
+        del f["path/spline_coefficients"]
+        f["path"].create_dataset("spline_coefficients", data=coefficients)
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=r"path/tip is not on path/spline \(off by [0-9.e+]+ m"):
+        load_plan(path)
+
+
 # ------------------------------------------------------------------ damaged files, read in a child
 def _damaged(src: Path, out_dir: Path, name: str) -> list[Path]:
     """Copies of ``src``: bytes changed in the attribute region, truncated, extended, seal altered, random damage."""
