@@ -24,6 +24,7 @@ from motionlib.library.selection import DEFAULT_START_WEIGHTS
 from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter, entry_id
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
+from motionlib.planning.spline import TipSpline
 from motionlib.planning.trajectory import StageReport, Trajectory, TrajectoryInfo
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -58,18 +59,18 @@ def synthetic_trajectory(crane: Crane, q0: np.ndarray, q1: np.ndarray, duration_
     dq = q1 - q0
     q = q0 + s[:, None] * dq
     tips = crane.fk_batch(q)
-    seg = np.linalg.norm(np.diff(tips, axis=0), axis=1)
-    path_s = np.concatenate([[0.0], np.cumsum(seg)])
+    spline = TipSpline.from_waypoints(tips[[0, n // 4, n // 2, 3 * n // 4, -1]])
+    path_s = np.linspace(0.0, spline.length, n)
     return Trajectory(
         t=t,
         q=q,
         qd=ds[:, None] * dq,
         qdd=dds[:, None] * dq,
         path_s=path_s,
-        path_tip=tips,
+        path_tip=spline(path_s),  # the stored path lies on the stored spline (check_trajectory)
         waypoints=tips[[0, n // 2, -1]],
-        spline_breakpoints=path_s[[0, n // 2, -1]],
-        spline_coefficients=np.zeros((4, 2, 3)),
+        spline_breakpoints=spline.breakpoints,
+        spline_coefficients=spline.coefficients,
         telescope_control_points=np.full(6, q0[3]),
         info=TrajectoryInfo(
             duration_s=duration_s,
