@@ -26,8 +26,9 @@ Each work cycle (one log, in the scenario's order):
 **Automation alone** (``member=None``, the passive operator, traded and shared modes only): no
 hands and no reaction time; each part is the automated motion, to the grab point and to the
 release point (so the scenario's automation ends must be ``per-log``), and the grapple acts as
-soon as the motion has ended (the tracker's arrival) and, with ``grapple_still_rad``, is still. A missed grab or release is tried again
-where the crane stands, after the dwell (the grapple's swing has decayed meanwhile).
+soon as the motion has ended (the tracker's arrival) and, with ``grapple_still_rad``, is still. A
+missed grab or release is tried again where the crane stands, after the dwell (the grapple's swing
+has decayed meanwhile).
 
 Events (:class:`TaskEvent`, in :attr:`LoadingTask.events`): ``cycle_start``, ``go_out``
 (automation command), ``grab_start`` (closing starts), ``grab`` (closed on the log),

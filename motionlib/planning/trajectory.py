@@ -415,11 +415,11 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
                  f"{None if r is None else r.shape} and {None if c is None else c.shape}")
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(c))):
             fail("rotator holds a non-finite value")
-    try:
-        spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
-    except InputError as exc:
-        fail(f"path/spline: {exc}")
-    with np.errstate(all="ignore"):  # a 1e308 coefficient overflows: it is an offset of inf
+    with np.errstate(all="ignore"):  # a 1e308 coefficient overflows (its derivative, its value): an offset of inf
+        try:
+            spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
+        except InputError as exc:
+            fail(f"path/spline: {exc}")
         off = float(np.max(np.abs(spline(traj.path_s) - traj.path_tip)))
     if not off <= PATH_ON_SPLINE_TOL_M:
         fail(f"path/tip is not on path/spline (off by {off:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
@@ -438,7 +438,8 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
         for name, q_k, p_k in (("start", traj.q[0], traj.path_tip[0]), ("end", traj.q[-1], traj.path_tip[-1])):
             gap = float(np.linalg.norm(crane.fk(q_k) - p_k))
             if not gap <= PATH_ENDS_TOL_M:
-                fail(f"the joint samples' tip is {gap:.3g} m from the path's {name} (expected <= {PATH_ENDS_TOL_M:g} m)")
+                fail(f"the joint samples' tip is {gap:.3g} m from the path's {name} "
+                     f"(expected <= {PATH_ENDS_TOL_M:g} m)")
 
 
 def save_plan(path: str | Path, traj: Trajectory, crane: Crane, scene: Scene) -> None:
