@@ -27,9 +27,10 @@ joints and the shared pump) and a
   jerk *after* the anchor (000 Fig. 8 compares the traded abort with the shared handover from
   the switch on; before it, the automation's own motion would dominate), those peaks in excess
   of the same motion's automation-only peaks (from its start to the anchor), and the step of
-  the commanded tip velocity ``|J (qd_cmd_k - qd_cmd_k-1)|`` at the switch; and the excerpt (000 Fig. 8). The tip is filtered with the cutoff
-  ``1 / (2 pi tau_noise)``, ``tau_noise`` = 10 ms (000 section 4.1: the noise time scale
-  removed by a low-pass filter before differentiating; ``NOISE_FILTER``);
+  the commanded tip velocity ``|J (qd_cmd_k - qd_cmd_k-1)|`` at the switch; and the excerpt
+  (000 Fig. 8). The tip is filtered with the cutoff ``1 / (2 pi tau_noise)``, ``tau_noise`` =
+  10 ms (000 section 4.1: the noise time scale removed by a low-pass filter before
+  differentiating; ``NOISE_FILTER``);
 * the tip path at ``PATH_RATE_HZ`` (000 Fig. 7).
 """
 
