@@ -13,6 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from swing_crossings import upward_crossings
 
 from motionlib.errors import InputError, ModelFileError
 from motionlib.model.crane_model import CRANES_DIR, crane_model_from_dict, joint_capacity
@@ -39,9 +40,7 @@ def _swing_period(sim: SimulatedCrane, theta0: float = 0.03, duration: float = 8
         sim.advance([0.0, 0.0, 0.0, 0.0], DT)
         xs.append(sim.grapple[0] - sim.tip[0])
         ts.append(sim.t)
-    x, t = np.array(xs), np.array(ts)
-    k = np.flatnonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))
-    crossings = t[k] - x[k] * (t[k + 1] - t[k]) / (x[k + 1] - x[k])
+    _, crossings = upward_crossings(np.array(ts), np.array(xs))
     assert len(crossings) >= 4
     return float(np.mean(np.diff(crossings)))
 

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
+from swing_crossings import upward_crossings
 
 from motionlib.errors import InputError
 from motionlib.sim.plant import SimParams, SimulatedCrane
@@ -121,9 +122,7 @@ def test_small_swing_period_and_decay(lab, c):
         xs.append(sim.grapple[0] - sim.tip[0])
         ts.append(sim.t)
     x, t = np.array(xs), np.array(ts)
-    # period from upward zero crossings (linear interpolation)
-    k = np.flatnonzero((x[:-1] < 0.0) & (x[1:] >= 0.0))
-    crossings = t[k] - x[k] * (t[k + 1] - t[k]) / (x[k + 1] - x[k])
+    k, crossings = upward_crossings(t, x)  # period from upward zero crossings (linear interpolation)
     length, g = sim.length_m, prm.gravity_m_s2
     omega_d = math.sqrt(g / length - c * c / 4.0)
     np.testing.assert_allclose(np.diff(crossings), 2 * math.pi / omega_d, rtol=2e-3)
