@@ -200,6 +200,9 @@ class Scenario:
             if area is None:
                 raise InputError(
                     f"scene {scene.name!r}: log {ob.name!r} lies in no pick-up region ({opts.pickup_prefix}*)")
+            if opts.log_density_kg_m3 is not None and ob.shape != "cylinder":
+                raise InputError(f"scene {scene.name!r}: log {ob.name!r} is a {ob.shape}, expected a cylinder "
+                                 "(log_density_kg_m3 puts the grabbed log's mass on the grapple)")
             axis = ob.rotation()[:, 2]
             norm = math.hypot(axis[0], axis[1])
             axis_xy = (float(axis[0] / norm), float(axis[1] / norm)) if norm > 1e-9 else (1.0, 0.0)

@@ -251,7 +251,8 @@ class LoadingTask:
             dwell = sc.options.grab_dwell_s
             if self._ok and density is not None and self.sim.held_log is None:  # the closing grapple takes the log
                 depth = self.sim.length_m - 0.5 * log.diameter_m  # held on its axis in the closed grapple
-                self.sim.grasp(log.mass_kg(density), depth, log.mass_kg(density) * log.diameter_m**2 / 8.0)
+                mass = log.mass_kg(density)
+                self.sim.grasp(mass, depth, mass * log.diameter_m**2 / 8.0)  # rolling in the grapple: m D^2 / 8
         else:
             self._ok = sc.release_ok(self.sim.tip)
             dwell = sc.options.release_dwell_s

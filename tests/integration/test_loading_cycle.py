@@ -99,3 +99,24 @@ def _one_line_error(*args: str) -> str:
 def test_cli_bad_input_is_one_line(args, why, tmp_path):
     line = _one_line_error(*args, "--out", str(tmp_path / "out"))
     assert line.startswith("Error:") and why in line
+
+
+def test_grabbed_log_mass_and_shape(tmp_path):
+    """The grabbed log's mass is its scene cylinder's volume times the density; a log that is not a cylinder is
+    refused when the scenario is built, not when the grapple closes mid-run."""
+    from motionlib import Scene
+    from motionlib.errors import InputError
+    from motionlib.experiment.loading_cycle import FORWARDER_SCENARIO
+    from motionlib.experiment.scenario import Scenario
+
+    src = Path("obstacles/forwarder-site.yaml")
+    scenario = Scenario.from_scene(Scene.load(src), FORWARDER_SCENARIO)
+    log1 = next(log for log in scenario.logs if log.name == "log-1")  # radius 0.14 m, length 4.0 m in the file
+    assert log1.mass_kg(900.0) == pytest.approx(900.0 * math.pi * 0.14**2 * 4.0)
+    text = src.read_text().replace("{name: log-1, shape: cylinder, radius: 0.14, length: 4.0,",
+                                   "{name: log-1, shape: box, size: [0.28, 0.28, 4.0],")
+    assert "shape: box, size: [0.28" in text
+    boxed = tmp_path / "forwarder-site.yaml"
+    boxed.write_text(text)
+    with pytest.raises(InputError, match="log 'log-1' is a box, expected a cylinder"):
+        Scenario.from_scene(Scene.load(boxed), FORWARDER_SCENARIO)
