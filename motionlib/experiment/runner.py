@@ -15,7 +15,6 @@ operator, mode and series.
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,9 +23,10 @@ from typing import Any
 
 from ..control.control_types import Mode
 from ..errors import ExecutionError, InputError
-from ..library.build import build_library, default_workers, exit_with_parent, library_is_current, parts_dir_for
+from ..library.build import build_library, default_workers, library_is_current, parts_dir_for
 from ..library.spec import LibrarySpec
 from ..progress import Progress, make_progress
+from ..worker_process import armed_initializer
 from .panel import PANEL, panel_operator
 from .report import write_outputs
 from .series import ExperimentContext, RunOptions, SeriesResult, run_series
@@ -121,8 +121,7 @@ class ExperimentResult:
 _CONTEXT: dict[str, ExperimentContext] = {}
 
 
-def _init_worker(library: str, options: RunOptions, parent_pid: int) -> None:
-    exit_with_parent(parent_pid)  # no worker outlives a killed experiment
+def _init_worker(library: str, options: RunOptions) -> None:
     _CONTEXT["ctx"] = ExperimentContext(library, options)
 
 
@@ -168,8 +167,8 @@ def run_experiment(
     else:
         ExperimentContext(library, config.run)  # fail here, once, on a bad library or scene
         mp = multiprocessing.get_context("spawn")
-        with ProcessPoolExecutor(workers, mp_context=mp, initializer=_init_worker,
-                                 initargs=(str(library), config.run, os.getpid())) as pool:
+        init = armed_initializer(_init_worker, str(library), config.run)  # workers end with this process
+        with ProcessPoolExecutor(workers, mp_context=mp, **init) as pool:
             futures = [pool.submit(_run_one, key, config.cycles) for key in keys]
             for fut in as_completed(futures):
                 res = fut.result()

@@ -18,9 +18,10 @@ entry order into a temporary file, flushed, fsynced and renamed to ``<OUT>``; th
 the parts directory is removed.
 
 No process left behind. Local worker processes end when the build process dies, even by
-SIGKILL (:func:`exit_with_parent`, run by the pool's initializer): on Linux the kernel kills
-them (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), elsewhere a watchdog thread notices the new
-parent. multiprocessing's resource tracker then sees its last user gone and exits too.
+SIGKILL (:func:`~motionlib.worker_process.armed_initializer`: armed before the planner is even
+imported): on Linux the kernel kills them (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), elsewhere a
+watchdog thread notices the new parent. multiprocessing's resource tracker then sees its last user
+gone and exits too.
 
 Determinism. Each entry has its own planner seed (from the spec seed and the entry
 key) and the planner restarts OMPL's generators from it for every query, so an
@@ -37,8 +38,6 @@ their whole budget improving the path, deterministically too.
 from __future__ import annotations
 
 import contextlib
-import ctypes
-import ctypes.util
 import datetime
 import fcntl
 import json
@@ -46,9 +45,7 @@ import os
 import platform
 import re
 import shutil
-import signal
 import socket
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -65,6 +62,7 @@ from ..fileio import atomic_output, decode_attr, hdf5_errors, open_sealed, read_
 from ..planning.planner import PLANNER_VERSION
 from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
 from ..progress import Progress, make_progress
+from ..worker_process import armed_initializer
 from .spec import Entry, LibrarySpec, plan_options
 from .store import EntryRecord, IndexRow, LibraryWriter, entry_id, failure_patterns
 
@@ -151,47 +149,8 @@ def _planner(setup: BuildSetup) -> Any:
     return planner
 
 
-#: prctl option that asks the kernel for a signal when the parent dies (linux/prctl.h).
-_PR_SET_PDEATHSIG = 1
-#: Seconds between two looks of the watchdog thread at the parent (where prctl is missing).
-PARENT_POLL_S = 0.5
-
-
-def exit_with_parent(parent_pid: int) -> str:
-    """Make this (worker) process end as soon as process ``parent_pid``, its parent, dies.
-
-    On Linux the kernel sends SIGKILL when the parent dies (``prctl(PR_SET_PDEATHSIG)``),
-    which works even while the worker is deep in a solver's C code; elsewhere a daemon
-    thread looks at ``os.getppid()`` every :data:`PARENT_POLL_S` s. A parent that died
-    before this call is noticed at once (the worker has been re-parented).
-
-    Returns
-    -------
-    str
-        ``prctl`` or ``watchdog``: the mechanism in use.
-    """
-    mechanism = "watchdog"
-    if sys.platform.startswith("linux"):
-        libc = ctypes.CDLL(ctypes.util.find_library("c"), use_errno=True)
-        if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
-            mechanism = "prctl"
-    if os.getppid() != parent_pid:
-        os._exit(1)  # the parent died before the death signal was armed
-    if mechanism == "watchdog":
-
-        def watch() -> None:
-            while os.getppid() == parent_pid:
-                time.sleep(PARENT_POLL_S)
-            os._exit(1)
-
-        threading.Thread(target=watch, name="motionlib-parent-watchdog", daemon=True).start()
-    return mechanism
-
-
-def init_worker(setup: BuildSetup, parent_pid: int | None = None) -> None:
-    """Process-pool initializer: end with the parent ``parent_pid`` (:func:`exit_with_parent`); build the planner."""
-    if parent_pid is not None:
-        exit_with_parent(parent_pid)
+def init_worker(setup: BuildSetup) -> None:
+    """Process-pool initializer: build this worker's planner."""
     with _WORKER_LOCK:
         _planner(setup)
 
@@ -385,7 +344,7 @@ def _run_local(setup: BuildSetup, todo: list[Entry], workers: int) -> Iterator[R
 
     ctx = multiprocessing.get_context("spawn")  # fresh interpreters: no inherited threads, locks or RNG state
     pool = ProcessPoolExecutor(
-        max_workers=workers, mp_context=ctx, initializer=init_worker, initargs=(setup, os.getpid())
+        max_workers=workers, mp_context=ctx, **armed_initializer(init_worker, setup)
     )
     try:
         futures = {pool.submit(plan_entry, setup, e): e for e in todo}

@@ -409,8 +409,8 @@ def test_no_process_outlives_a_killed_experiment(tiny, tmp_path: Path):
     spec, lib = tiny
     started: list[float] = []
 
-    def ready(children) -> bool:  # both workers up, and a second into their runs
-        if len(children) < 2:
+    def ready(children) -> bool:  # both pool workers up (the resource tracker aside), and a second later
+        if sum("spawn_main" in " ".join(c.cmdline()) for c in children) < 2:
             return False
         started.append(time.monotonic())
         return started[-1] - started[0] > 1.0
