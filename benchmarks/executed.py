@@ -19,7 +19,8 @@ against the issue's targets: ratio median <= 1.15, max <= 1.35; overshoot <= 0.0
 
 ``--baseline`` runs each row's path again as the pipeline had it before issue 22: the time-optimal plan of
 the same path (:meth:`Planner.plan_along` with ``PlanOptions(swing_shaping=False)``) executed by the tracker's
-speed law of 000 section 2.3 (``TrackerParams(timing="path")``) with the swing damping without its dead band,
+speed law of 000 section 2.3 with its look-ahead as written (``TrackerParams(timing="path",
+lateral_gain_per_s=0)``: no cap on the pull back onto the path) with the swing damping without its dead band,
 and prints its planned and settle times and the ratio of the two settle times (this run's / the baseline's):
 how much sooner a motion is done, measured in one process.
 
@@ -137,7 +138,8 @@ def main() -> None:
         line = (f"{row:5d} {o.planned_s:9.2f} {o.settle_s:8.2f} {o.ratio:6.2f} {o.overshoot_m:11.3f} "
                 f"{o.swing_rad:9.3f} {'yes' if o.settled else 'NO':>7}")
         if args.baseline:
-            b = run_row(lib, row, swing_tol, before, TrackerParams(timing="path"), time_optimal(lib, row))
+            b = run_row(lib, row, swing_tol, before, TrackerParams(timing="path", lateral_gain_per_s=0.0),
+                         time_optimal(lib, row))
             base.append(b)
             line += f" | {b.planned_s:14.2f} {b.settle_s:13.2f} {o.settle_s / b.settle_s:13.2f}"
         if args.no_swing_settle:

@@ -250,10 +250,10 @@ class ControllerParams:
         yet: with both per joint, 12 closed-loop tests do not settle (docs/runtime.md, "Per-joint natural
         frequencies").
     position_gain_margin : float
-        Gain margin of the automation's position loop (the tracker's final convergence
-        ``end_gain_per_s`` is capped at the gain with this margin on the joint model loaded by
-        the grapple); 3 (~10 dB) leaves room for the valve lag and the command ramp the model
-        omits. Assumption. 0: no cap.
+        Gain margin of the automation's position loops (the tracker's final convergence
+        ``end_gain_per_s`` and its pull back onto the path ``lateral_gain_per_s`` are capped at the gain
+        with this margin on the joint model loaded by the grapple); 3 (~10 dB) leaves room for the valve
+        lag and the command ramp the model omits. Assumption. 0: no cap.
     """
 
     dt_s: float = param(0.005, gt=0.0)

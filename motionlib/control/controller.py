@@ -24,8 +24,9 @@ states and joystick samples. One step:
    resolved with the joint-limit weights and added to the operator's joint rates), ``r_h`` the
    measured horizontal offset of the grapple from the tip (``CraneState.swing``), bounded by
    ``swing_damping_max_m_s``. **Position gain**: a new motion's tracker gets its final
-   convergence gain capped by :meth:`SharedController.position_gain_max` (the gain margin on
-   the identified joint model loaded by the grapple). Without both, the swinging load on the
+   convergence gain and its pull back onto the path (``TrackerParams.lateral_gain_per_s``) capped by
+   :meth:`SharedController.position_gain_max` (the gain margin on the identified joint model loaded by
+   the grapple). Without both, the swinging load on the
    oil springs kept the tip from settling for 2.6x the planned duration or longer, some
    motions never (docs/runtime.md).
 4. **Resolved rate** (000 eq. 2, 001 eq. 7): ``qd = z + W J^T (J W J^T + lambda^2 I)^-1 (p_s - J z)``,
@@ -269,8 +270,9 @@ class SharedController:
         PathTracker
             The tracker of the motion (also :attr:`tracker`).
         """
-        gain = min(self.tracker_params.end_gain_per_s, self.position_gain_max(trajectory.q))
-        tracker = PathTracker(trajectory, self.crane, replace(self.tracker_params, end_gain_per_s=gain))
+        prm, k_max = self.tracker_params, self.position_gain_max(trajectory.q)
+        tracker = PathTracker(trajectory, self.crane, replace(
+            prm, end_gain_per_s=min(prm.end_gain_per_s, k_max), lateral_gain_per_s=min(prm.lateral_gain_per_s, k_max)))
         self.tracker = tracker
         if self.rotator is not None:
             self.rotator.start(trajectory)

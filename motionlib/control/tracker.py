@@ -11,6 +11,17 @@ With the tip at ``p`` and the path ``q(s)``, ``s in [0, l]`` (arc length):
 
       p_a = v (q_Delta - p) / |q_Delta - p|,   q_Delta = q(min(s_p + Delta s, l))
 
+* the pull back onto the path, capped: ``q_Delta - p = (q_Delta - q_p) + (q_p - p)`` is the chord
+  along the path plus the lateral error ``e = q_p - p``, which eq. 3 turns into a velocity of about
+  ``v e / Delta s``: a position loop of gain ``v / Delta s``. At speed that gain exceeds what the
+  hydraulic joints carry (at 1 m/s and ``s_min`` = 0.1 m it is 10 1/s, against the 2-4 1/s of
+  :meth:`~motionlib.control.controller.SharedController.position_gain_max`): their oil springs ring
+  through the loop and the executed total jerk grows 30-50x (docs/runtime.md, "Path tracker"). The
+  direction is therefore taken of ``(q_Delta - q_p) + alpha (q_p - p)``, ``alpha = min(1, k_lat Delta
+  s / v)`` (``k_lat`` = ``lateral_gain_per_s``, ``v`` of the previous step): eq. 3 itself wherever
+  ``v / Delta s <= k_lat``, and a pull of gain ``k_lat`` above. Lengthening ``Delta s`` instead would
+  cut the path's corners (8 cm on the test path at 0.4 m).
+
 * tracking speed, with ``e = |q(l) - p|`` the distance from the end point::
 
       v = max(v_plan(s_v), min(v_floor, k_end e), w_end min(v_conv, k_end e))
@@ -102,8 +113,8 @@ update (s, NaN before the first), for ``timing="time"``)."""
 _I, _S_P, _DEV, _DIST_END, _LOOKAHEAD, _SPEED, _PD, _Z, _T_REF, _S_REF, _I_REF, _R_REF, _T_LAST = (
     0, 1, 2, 3, 4, 5, 6, 9, 13, 14, 15, 16, 18)
 # PathTracker.consts: s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau, h, 1/h, window (samples), l,
-# timed (0/1), k_t, lead (s), tau_t (s)
-N_TRACKER_CONSTS = 16
+# timed (0/1), k_t, lead (s), tau_t (s), k_lat (1/s)
+N_TRACKER_CONSTS = 17
 TIMINGS = ("time", "path")
 
 
@@ -121,6 +132,11 @@ class TrackerParams:
         Smallest tracking speed (m/s).
     end_gain_per_s : float
         ``k_end`` (1/s) of the final convergence onto the end point.
+    lateral_gain_per_s : float
+        ``k_lat`` (1/s): the largest gain of the pull back onto the path (module docstring; eq. 3 gives
+        ``v / Delta s``). The controller caps it, like ``k_end``, at
+        :meth:`~motionlib.control.controller.SharedController.position_gain_max`; 0: no cap (000
+        section 2.3 as written).
     converge_speed_m_s : float
         ``v_conv``: largest speed (m/s) of the final convergence.
     lag_preview_s : float
@@ -161,6 +177,7 @@ class TrackerParams:
     lookahead_gain: float = param(2.0, ge=0.0)
     v_floor_m_s: float = param(0.03, ge=0.0)
     end_gain_per_s: float = param(5.0, ge=0.0)
+    lateral_gain_per_s: float = param(5.0, ge=0.0)
     converge_speed_m_s: float = param(0.3, ge=0.0)
     lag_preview_s: float = param(0.05, ge=0.0)
     config_gain_per_s: float = param(2.0, ge=0.0)
@@ -238,7 +255,8 @@ class PathTracker:
         self.consts = np.array([prm.s_min_m, prm.s_max_m, prm.lookahead_gain, prm.v_floor_m_s, prm.end_gain_per_s,
                                 prm.converge_speed_m_s, prm.config_gain_per_s, prm.lag_preview_s, self.h,
                                 1.0 / self.h, max(1, int(math.ceil(prm.window_m / self.h))), self.length,
-                                float(prm.timing == "time"), prm.time_gain_per_s, prm.lead_s, prm.time_preview_s])
+                                float(prm.timing == "time"), prm.time_gain_per_s, prm.lead_s, prm.time_preview_s,
+                                prm.lateral_gain_per_s])
         #: The tracker's state (TRACKER_STATE: search index, s_p, distances, look-ahead, speed, p_a, z).
         self.state = np.zeros(len(TRACKER_STATE))
         self.reset()
@@ -463,9 +481,9 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
     ----------
     table : ndarray, shape (n, 12)
         :data:`TABLE_COLUMNS`.
-    consts : ndarray, shape (12,)
-        ``s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau`` and the table's ``h``, ``1/h``,
-        search window (samples) and length ``l`` (m).
+    consts : ndarray, shape (N_TRACKER_CONSTS,)
+        ``s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau``, the table's ``h``, ``1/h``,
+        search window (samples) and length ``l`` (m), then ``timed, k_t, lead, tau_t, k_lat``.
     state : ndarray, shape (13,)
         :data:`TRACKER_STATE`, updated in place.
     tip_speed : float
@@ -488,10 +506,21 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
     if ds > s_max:
         ds = s_max
     state[_LOOKAHEAD] = ds
+    # q_Delta - p = (q_Delta - q_p) + alpha (q_p - p): the chord along the path plus the pull back onto it,
+    # alpha = min(1, k_lat Delta / v) (v of the previous step) keeps the pull's gain v alpha / Delta <= k_lat
+    alpha = 1.0
+    if consts[16] > 0.0 and state[_SPEED] > consts[16] * ds:
+        alpha = consts[16] * ds / state[_SPEED]
+    k, g = _interval(s_p * inv_h, last)
     j, f = _interval((s_p + ds) * inv_h, last)
+    pull = 1.0 - alpha
     lx = table[j, 0] + f * (table[j + 1, 0] - table[j, 0]) - x
     ly = table[j, 1] + f * (table[j + 1, 1] - table[j, 1]) - y
     lz = table[j, 2] + f * (table[j + 1, 2] - table[j, 2]) - z
+    if pull > 0.0:  # less of the error p - q_p than 000 eq. 3's whole
+        lx += pull * (x - table[k, 0] - g * (table[k + 1, 0] - table[k, 0]))
+        ly += pull * (y - table[k, 1] - g * (table[k + 1, 1] - table[k, 1]))
+        lz += pull * (z - table[k, 2] - g * (table[k + 1, 2] - table[k, 2]))
     dist_la = math.sqrt(lx * lx + ly * ly + lz * lz)
 
     # the plan's clock: when the plan was where the tip is ("path"), or its own clock, at most lead_s ahead

@@ -351,25 +351,31 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing,
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 
 
-def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams, **loop):
+def _passive_run(crane, traj, controller: ControllerParams, plant: SimParams, swing0_rad: float = 0.0, **loop):
     ctl = SharedController(crane, "M6", controller)
     ctl.start_motion(traj)
     sim = SimulatedCrane(crane, traj.q[0], plant)
+    if swing0_rad:  # the grapple already swings in the x-z plane (left by a previous move, a push)
+        length = crane.model.grapple_length
+        sim.set_grapple((length * math.sin(swing0_rad), 0.0, -length * math.cos(swing0_rad)))
     res = run_closed_loop(ctl, sim, PassiveOperator(), LoopOptions(time_limit_s=6 * traj.duration_s, **loop))
     return res, float(np.max(res.log.arrays(crane)["swing_rad"]))
 
 
 @pytest.mark.parametrize("which", ["planned", "planned_back"])
 def test_planned_motion_settles_on_the_hydraulic_plant_with_the_swinging_load(which, request):
-    """Default controller on the default plant (second order, the load's pull): it settles soon after the plan
-    ends, with the grapple's swing below the tolerance (LoopOptions.settle_swing_rad), and much sooner than the
-    same controller without the swing damping, whose grapple swings on after the tip has stopped."""
+    """Default controller on the default plant (second order, the load's pull): it settles within issue 22's
+    1.35x the planned duration, with the grapple's swing below the tolerance (LoopOptions.settle_swing_rad).
+    A shaped plan tracked on its time law leaves little swing to damp (without the swing damping it settles
+    within 0.2 s of that, either way); a grapple that already swings 0.15 rad at the start settles much
+    sooner with the damping than without (measured: 6.3 / 5.8 s against 9.4 / 10.2 s)."""
     crane, _, traj = request.getfixturevalue(which)
     res, swing = _passive_run(crane, traj, ControllerParams(), SimParams())
-    undamped, _ = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams())
-    assert res.settled and res.cycle_time_s < 2.0 * traj.duration_s
+    assert res.settled and res.cycle_time_s < 1.35 * traj.duration_s
     assert [e.name for e in res.log.events] == ["motion_start", "arrival"]
-    assert undamped.settled and undamped.cycle_time_s > res.cycle_time_s + 0.5  # measured: 1.6 s later
+    pushed, _ = _passive_run(crane, traj, ControllerParams(), SimParams(), swing0_rad=0.15)
+    undamped, _ = _passive_run(crane, traj, NO_SWING_DAMPING, SimParams(), swing0_rad=0.15)
+    assert pushed.settled and undamped.settled and undamped.cycle_time_s > pushed.cycle_time_s + 0.5
     assert res.diagnostics["hard_stop_hits"] == 0
 
 
