@@ -67,6 +67,8 @@ PLANNER_RANGES: dict[str, Plausible] = {
     "goal_log_yaw": Plausible(-2 * math.pi, 2 * math.pi, -4 * math.pi, 4 * math.pi, "rad"),
     # the residual swing a plan may leave: from a still grapple to ~30 degrees (the linear pendulum's range)
     "swing_tolerance_rad": Plausible(1e-3, 0.5, 1e-5, 1.5, "rad"),
+    # the largest swing during a motion: from a nearly still grapple to the linear pendulum's range
+    "swing_peak_rad": Plausible(0.05, 1.0, 1e-3, 1.5, "rad"),
     # the jerk-limiting box of swing shaping: from a fast valve's opening to a slow operator's
     "jerk_box_s": Plausible(0.01, 1.0, 1e-3, 10.0, "s"),
 }
@@ -382,7 +384,8 @@ def _integer(sec: Section, key: str, default: Any, lo: int | None = None, hi: in
 
 
 #: Options that must be > 0.
-_POSITIVE = {"time_limit_s", "dt_s", "verify_tip_spacing_m", "check_step_m", "swing_tolerance_rad", "jerk_box_s"}
+_POSITIVE = {"time_limit_s", "dt_s", "verify_tip_spacing_m", "check_step_m", "swing_tolerance_rad", "swing_peak_rad",
+             "jerk_box_s"}
 
 
 def _read_planner(sec: Section) -> dict[str, Any]:

@@ -82,7 +82,8 @@ from .redundancy import (
     telescope_bounds,
 )
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
-from .shaping import ShapedMotion, restretched, shaped_candidates
+from .settled_law import settled_law
+from .shaping import ShapedMotion, Shaper, restretched, shape, shaped_candidates
 from .smoothness import smoothness
 from .spline import TipSpline
 from .swing import predict_swing
@@ -111,8 +112,9 @@ class PlanStatus(Enum):
 #: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins;
 #: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
-#: (:mod:`motionlib.planning.shaping`), jerk-limited.
-PLANNER_VERSION = 5
+#: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: first the minimum-time law with the swing in the problem
+#: (:mod:`motionlib.planning.settled_law`), the shapers only where it fails.
+PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -192,6 +194,12 @@ class PlanOptions:
     swing_tolerance_rad : float
         Residual swing amplitude (rad) that counts as settled: the shaping's target and the tolerance of
         the reported time to settled (the simulated run's ``LoopOptions.settle_swing_rad`` is 0.03 too).
+    swing_peak_rad : float
+        Largest swing (rad) the minimum-time law with the swing in the problem may have during the motion
+        (:mod:`motionlib.planning.settled_law`; its grid points). Without a bound the forwarder's loaded
+        motions swing 0.4-0.5 rad on the way (the log ~0.5 m out) and the collision checks take the
+        grapple hanging; 0.3 rad (~0.33 m at the grapple): assumption, costing 0-15 % of the duration on
+        the forwarder cycle's motions (docs/trajectory-format.md, "Swing shaping").
     jerk_box_s : float
         Length (s) of the moving average every shaped time law gets: the path jerk is bounded by the
         path acceleration's largest change over it. Assumption: 0.1 s, the time a proportional valve's
@@ -217,6 +225,7 @@ class PlanOptions:
     goal_log_yaw: float | None = None
     swing_shaping: bool = True
     swing_tolerance_rad: float = 0.03
+    swing_peak_rad: float = 0.3
     jerk_box_s: float = 0.1
 
 
@@ -734,16 +743,19 @@ class Planner:
         law = timing.law
         tol = o.swing_tolerance_rad
         above: list[ShapedMotion] = []  # candidates above the tolerance, for when none meets it
+        motion = self._settled_motion(law, details, rejected)
+        if motion is not None:
+            return self._shaped(motion, timing, details, rejected, "ok")
         for candidate in shaped_candidates(law, self.crane, self.pendulum, tol, o.jerk_box_s, o.dt_s):
             if candidate.swing.residual_rad > tol:
                 above.append(candidate)
                 continue
-            motion = self._verified_shaping(law, candidate, tol, rejected)
+            motion = self._verified_shaping(candidate, tol, rejected)
             if motion is not None:
                 return self._shaped(motion, timing, details, rejected, "ok")
         # none meets the tolerance: the least swing that verifies, reported as it is
         for candidate in sorted(above, key=lambda m: (m.swing.residual_rad, m.duration_s)):
-            motion = self._verified_shaping(law, candidate, None, rejected)
+            motion = self._verified_shaping(candidate, None, rejected)
             if motion is not None:
                 details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least that verifies, "
                                      f"{motion.swing.residual_rad:.3f} rad, is kept")
@@ -751,7 +763,40 @@ class Planner:
         details.update(rejected=rejected, reason=f"no swing-shaped motion verifies (rejected: {len(rejected)})")
         return None, None, "", details
 
-    def _verified_shaping(self, law: TimeLaw, motion: ShapedMotion, tolerance: float | None,
+    def _settled_motion(self, law: TimeLaw, details: dict[str, Any], rejected: dict[str, str]) -> ShapedMotion | None:
+        """The minimum-time law with the swing in the problem (:func:`~motionlib.planning.settled_law.settled_law`)
+        and the jerk box, if its predicted swing is within the tolerance and it verifies; else None.
+
+        Its limits hold at the grid points of the problem only; a motion that exceeds one between them by a
+        ratio up to ``MAX_RESTRETCH`` is solved again under limits scaled down by that ratio (at most
+        ``SHAPING_RESTRETCHES`` times). The solver's diagnostics go into ``details["settled_law"]``, a
+        rejection into ``rejected``.
+        """
+        o = self.options
+        scale = 1.0
+        for _ in range(SHAPING_RESTRETCHES + 1):
+            limits = self.full_limits if scale == 1.0 else limits_for(self.crane, scale, with_rotator=True)
+            settled = settled_law(law, limits, self.crane, self.pendulum, o.swing_tolerance_rad, o.swing_peak_rad)
+            details["settled_law"] = {"status": settled.status.value, "reason": settled.reason, "limit_scale": scale,
+                                      **settled.diagnostics}
+            if settled.law is None:
+                return None
+            motion = shape(settled.law, Shaper("settled", ((0.0, 1.0),), o.jerk_box_s), self.crane, self.pendulum,
+                           o.swing_tolerance_rad, o.dt_s)
+            if motion.swing.residual_rad > o.swing_tolerance_rad:
+                rejected[f"settled (limits x {scale:.3f})"] = f"predicted residual swing {motion.swing.residual_rad:.3f} rad"
+                return None
+            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd,
+                                               swing_tolerance_rad=o.swing_tolerance_rad)
+            if report.ok:
+                return motion
+            rejected[f"settled (limits x {scale:.3f})"] = report.problems[0]
+            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
+                return None
+            scale /= report.limit_ratio * (1.0 + LIMIT_TOLERANCE)
+        return None
+
+    def _verified_shaping(self, motion: ShapedMotion, tolerance: float | None,
                           rejected: dict[str, str]) -> ShapedMotion | None:
         """``motion`` if it passes the dense verification (with the swing check for a ``tolerance``), or its
         re-shaping with the base law stretched by the worst limit ratio (at most ``SHAPING_RESTRETCHES``
@@ -765,7 +810,7 @@ class Planner:
             rejected[_shaper_label(motion)] = report.problems[0]
             if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
                 return None
-            motion = restretched(law, motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
+            motion = restretched(motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
                                  self.pendulum, o.swing_tolerance_rad, o.dt_s)
             if tolerance is not None and motion.swing.residual_rad > tolerance:
                 return None
@@ -944,8 +989,8 @@ class Planner:
             rejected[name] = str(exc)
             return
         shapes = ROTATOR_SHAPES if q5_goal != q5_start else ROTATOR_SHAPES[:1]
-        for shape in shapes:
-            rot = rotator_profile(shape, q5_start, q5_goal, length, o.redundancy.degree)
+        for rotator_shape in shapes:
+            rot = rotator_profile(rotator_shape, q5_start, q5_goal, length, o.redundancy.degree)
             if not self._arm_checker.configurations_in_collision(add_rotator(q_chk, rot, s_check), o.loaded).any():
                 usable[name] = add_rotator(q_grid, rot, s_grid)
                 rotators[name] = rot

@@ -185,7 +185,7 @@ def tuned(law: TimeLaw, shaper: Shaper, crane: Any, pendulum: Pendulum, dt: floa
 
 
 def restretched(
-    law: TimeLaw, motion: ShapedMotion, factor: float, crane: Any, pendulum: Pendulum, tolerance_rad: float, dt: float
+    motion: ShapedMotion, factor: float, crane: Any, pendulum: Pendulum, tolerance_rad: float, dt: float
 ) -> ShapedMotion:
     """``motion``'s shaping with its base law stretched ``factor`` (> 1) times more (a tuned shaper re-tuned).
 
@@ -197,6 +197,7 @@ def restretched(
     if not factor > 1.0:
         raise InputError(f"factor: expected a stretch > 1, got {factor}")
     shaper = replace(motion.shaper, stretch=motion.shaper.stretch * factor)
+    law = motion.law.shaped()  # the base law, unshaped
     if shaper.name.endswith("-tuned"):
         shaper = tuned(law, shaper, crane, pendulum, dt)
     return shape(law, shaper, crane, pendulum, tolerance_rad, dt)

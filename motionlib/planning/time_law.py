@@ -90,6 +90,11 @@ class TimeLaw:
         base = PPoly(coeffs, np.concatenate([[-1.0], t, [duration + 1.0]]))
         return cls(path, base, duration, s0, s1)
 
+    def grid_speeds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The base law's grid ``s_i`` (K,) and path speeds ``s_dot_i`` (K,) (:meth:`from_toppra`'s arguments)."""
+        c = self.base.c[:, 1:-1]  # the pieces between the grid points: (u_i / 2, s_dot_i, s_i)
+        return np.append(c[2], self.end), np.append(c[1], self.base.c[1, -1])
+
     @functools.cached_property
     def _integral(self) -> PPoly:
         """Antiderivative ``I`` of the base law (the box's exact evaluation)."""

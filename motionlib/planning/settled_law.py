@@ -1,0 +1,271 @@
+"""The minimum-time law along a path that arrives with the grapple still (the pendulum in the time-optimal problem).
+
+Input shapers (:mod:`motionlib.planning.shaping`) cancel the swing of a time-optimal law by delaying
+part of it by half a pendulum period or more: on the lab crane's motions they add about a third to
+the duration, and on slewing paths, where the tip's centripetal acceleration is not linear in the
+shaped ``s``, they cannot cancel it at all. :func:`settled_law` instead solves the time-optimal
+problem with the pendulum in it, on TOPPRA's grid ``s_0 < ... < s_N`` of the timed path:
+
+    minimise   T + w J,   T = sum_i h_i,  h_i = 2 ds_i / (v_i + v_{i+1})     (TOPPRA's law, v = s_dot)
+    subject to v_0 = v_N = 0 (rest to rest), 0 <= v_i^2 <= x_max(s_i),
+               lo <= F_j (a_j u_i + b_j v_j^2 + c_j) <= g_j  for j = i, i + 1,  u_i = (v_{i+1}^2 - v_i^2) / (2 ds_i),
+               z_{i+1} = Phi_i(z_i, V_i, V_{i+1}),  z_0 = 0,
+               |(theta_N, (theta'_N + c theta_N / 2) / omega_d)| <= margin * tolerance,
+               |(theta_x, theta_y)_i| <= peak (optional),
+
+with ``J = 1/2 int s_ddd^2 dt`` the path's total jerk (:data:`JERK_WEIGHT`).
+
+* The limits are TOPPRA's own constraints (``Limit.toppra_constraint``: joint velocity and pump flow as
+  bounds ``x_max`` on ``x = v^2``, joint acceleration as the linear rows ``F (a u + b x + c) <= g``),
+  imposed at both ends of every interval as TOPPRA's interpolation scheme does; the law is TOPPRA's
+  piecewise constant path acceleration (:meth:`~motionlib.planning.time_law.TimeLaw.from_toppra`), so the
+  path is unchanged.
+* The pendulum is (1) of :mod:`motionlib.planning.swing` per horizontal axis in its state
+  ``z = (theta, theta' + v_h / L)`` driven by the tip's horizontal velocity ``V = p'(s) v`` (``p'`` from
+  :func:`~motionlib.planning.swing.tip_velocity` at the grid points), linear in time over each interval
+  of ``dt_i = 2 ds_i / (v_i + v_{i+1})`` (as the first-order hold of
+  :func:`~motionlib.planning.swing.swing_response`) and integrated exactly (:func:`_pendulum_step`), as
+  unknowns of the problem (multiple shooting: sparse derivatives) with the path speeds.
+* IPOPT (CasADi) solves it from TOPPRA's profile within ``max_iter`` iterations (a budget in
+  iterations, so the result does not depend on the machine); only ``Solve_Succeeded`` counts. The
+  residual swing is bounded at ``margin`` (:data:`SWING_MARGIN`) times the tolerance: the planner
+  predicts the sampled law's swing again with the exact discretisation and verifies it densely.
+
+This is the classical anti-sway result (a time-optimal crane motion accelerates and brakes so that the
+pendulum ends at rest; e.g. Abdel-Rahman, Nayfeh & Masoud 2003, *Dynamics and control of cranes: a review*,
+J. Vibration and Control 9(7)) in the discretisation of TOPPRA (Pham & Pham 2018, *A new approach to
+time-optimal path parameterization based on reachability analysis*, IEEE T-RO 34(3)).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from ..errors import PlanningError
+from ..model.limits import Limit
+from .swing import Pendulum, tip_velocity
+from .time_law import TimeLaw
+
+#: The residual swing is bounded at this fraction of the planner's tolerance: room for the jerk box and for
+#: what the model leaves out (a lab motion fed open loop to the simulated crane's lagging joints ends at
+#: 0.0265 rad with 1/3, 0.0288 rad with 1/2; tests/integration/test_swing_shaping.py).
+SWING_MARGIN = 1.0 / 3.0
+#: Most grid points of the problem: TOPPRA's grid (100-500 points) is thinned to this many, evenly. The
+#: swing needs no finer grid (an interval lasts well under a tenth of a pendulum period); the limits between
+#: the points are verified densely afterwards, as after TOPPRA.
+MAX_GRID = 120
+#: Weight ``w`` (s^6/m^2) of the path's total jerk in the objective ``T + w 1/2 int s_ddd^2 dt`` (``s`` the tip's
+#: arc length, so ``s_ddd`` is its jerk along the path, 000 eq. 6's integrand): without it the solution switches
+#: the path acceleration as a time-optimal law does. 1e-3: assumption; on a forwarder motion out and back
+#: (docs/trajectory-format.md) it costs 2-3 % of the duration and divides the planned total jerk by 5-6.
+JERK_WEIGHT = 1e-3
+#: IPOPT iteration budget.
+MAX_ITER = 300
+#: IPOPT starts from TOPPRA's profile slowed down this many times (strictly inside its limits).
+INITIAL_STRETCH = 1.1
+#: Smallest interior path speed (units of s per second): keeps every interval's time finite.
+MIN_SPEED = 1e-4
+
+
+class SettledLawStatus(enum.Enum):
+    """Outcome of :func:`settled_law`."""
+
+    OK = "ok"
+    NOT_AT_REST = "not_at_rest"  # the law does not start and end at rest
+    SOLVER_FAILED = "solver_failed"  # IPOPT did not return Solve_Succeeded
+
+
+@dataclass
+class SettledLaw:
+    """Result of :func:`settled_law`.
+
+    Attributes
+    ----------
+    status : SettledLawStatus
+    reason : str
+        One line; empty when OK.
+    law : TimeLaw or None
+        The minimum-time law with the swing constraint (its base; unshaped), None on failure.
+    diagnostics : dict
+        ``ipopt_status``, ``iterations``, ``duration_s`` (the law's), ``toppra_duration_s``, ``n_grid``.
+    """
+
+    status: SettledLawStatus
+    reason: str = ""
+    law: TimeLaw | None = None
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status is SettledLawStatus.OK
+
+    def raise_for_status(self) -> SettledLaw:
+        """Return self when OK, else raise :class:`~motionlib.errors.PlanningError`."""
+        if not self.ok:
+            raise PlanningError("swing", f"settled law {self.status.value}: {self.reason}")
+        return self
+
+
+def _linear_rows(limits: Sequence[Limit], path: Any, grid: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+    """TOPPRA's constraints at the grid points: the bound ``x_max`` (n,) on ``v^2`` and the acceleration rows.
+
+    Each row set is ``(Fa, Fb, Fc)`` of shape (n, k): ``Fa u + Fb x + Fc <= 0`` at each grid point.
+    """
+    import toppra.constraint as tc
+
+    n = grid.size
+    x_max = np.full(n, np.inf)
+    rows = []
+    for limit in limits:
+        con = limit.toppra_constraint()
+        if con is None:
+            continue
+        if con.get_discretization_type() is not tc.DiscretizationType.Collocation:
+            con.set_discretization_type(tc.DiscretizationType.Collocation)  # rows per grid point, paired below
+        a, b, c, f, g, _, xbound = con.compute_constraint_params(path, grid)
+        if xbound is not None:
+            x_max = np.minimum(x_max, np.asarray(xbound)[:, 1])
+        if a is not None:
+            f = np.broadcast_to(f, (n, *np.shape(f)[-2:]))
+            g = np.broadcast_to(g, (n, np.shape(g)[-1]))
+            rows.append((np.einsum("nkm,nm->nk", f, a), np.einsum("nkm,nm->nk", f, b),
+                         np.einsum("nkm,nm->nk", f, c) - g))
+    return x_max, rows
+
+
+def _pendulum_step(pendulum: Pendulum) -> ca.Function:
+    """One grid interval of (1) for both axes, exactly: ``(z, v0, v1, d0, d1, h) -> z_next``.
+
+    ``z`` (4,) is ``(theta_x, r_x, theta_y, r_y)``, ``r = theta' + v_h / L``; the interval runs at path
+    speeds ``v0 -> v1`` (constant path acceleration) for ``h`` (s), ``d0``, ``d1`` (2,) the
+    tip's horizontal velocity per unit path speed at its ends, and the input ``w = d v`` is taken linear in
+    time over the interval (the first-order hold of :func:`~motionlib.planning.swing.swing_response`). With
+    ``Phi = e^(A h) = e^(-sigma h) (cos(omega_d h) I + sin(omega_d h) / omega_d (A + sigma I))``
+    (``sigma = c / 2``)::
+
+        z_next = Phi z + A^-1 (Phi - I) B w0 + (A^-2 (Phi - I) - A^-1 h) B (w1 - w0) / h
+    """
+    a_mat, b_mat, _, _ = pendulum.system()
+    sigma, omega = pendulum.decay_per_s, pendulum.omega_d
+    args = [ca.SX.sym(name, size) for name, size in (("z", 4), ("v0", 1), ("v1", 1), ("d0", 2), ("d1", 2), ("h", 1))]
+    z, v0, v1, d0, d1, h = args
+    eye = ca.DM.eye(2)
+    phi = ca.exp(-sigma * h) * (ca.cos(omega * h) * eye + ca.sin(omega * h) / omega * ca.DM(a_mat + sigma * np.eye(2)))
+    a_inv = ca.DM(np.linalg.inv(a_mat))
+    b = ca.DM(b_mat)
+    gamma0 = ca.mtimes([a_inv, phi - eye, b])
+    gamma1 = ca.mtimes(ca.mtimes([a_inv, a_inv, phi - eye]) - a_inv * h, b)
+    out = []
+    for axis in range(2):
+        w0, w1 = d0[axis] * v0, d1[axis] * v1
+        zi = z[2 * axis : 2 * axis + 2]
+        out.append(ca.mtimes(phi, zi) + gamma0 * w0 + gamma1 * (w1 - w0) / h)
+    return ca.Function("pendulum_step", args, [ca.vertcat(*out)])
+
+
+def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pendulum, tolerance_rad: float,
+                peak_rad: float | None = None, max_iter: int = MAX_ITER) -> SettledLaw:
+    """The minimum-time law along ``law``'s path whose residual swing is at most ``SWING_MARGIN * tolerance_rad``.
+
+    Parameters
+    ----------
+    law : TimeLaw
+        TOPPRA's law (:meth:`~motionlib.planning.time_law.TimeLaw.from_toppra`) of a rest-to-rest motion;
+        its grid and path are kept.
+    limits : sequence of Limit
+        The limits the law was timed under (their TOPPRA constraints).
+    crane : Crane
+        Whose tip the path's joints move.
+    pendulum : Pendulum
+    tolerance_rad : float
+        The planner's swing tolerance (rad).
+    peak_rad : float, optional
+        Largest swing ``|(theta_x, theta_y)|`` (rad) during the motion, at the grid points; None: free.
+    max_iter : int
+        IPOPT's iteration budget.
+    """
+    grid, sd = law.grid_speeds()
+    if sd[0] != 0.0 or sd[-1] != 0.0:
+        return SettledLaw(SettledLawStatus.NOT_AT_REST, "only a motion from rest to rest is solved")
+    if grid.size > MAX_GRID:  # every k-th grid point, the ends kept
+        keep = np.unique(np.round(np.linspace(0, grid.size - 1, MAX_GRID)).astype(int))
+        grid, sd = grid[keep], sd[keep]
+    path = law.path
+    n = grid.size
+    ds = np.diff(grid)
+    x_max, rows = _linear_rows(limits, path, grid)
+    dp = tip_velocity(crane, path(grid), path(grid, 1))[:, :2]  # tip velocity (m/s) per unit path speed
+
+    # unknowns: the path speeds v_1..v_{N-1}, the intervals' durations h_i (a linear objective; h_i (v_i + v_{i+1})
+    # = 2 ds_i ties them) and the swing states z_1..z_N after each interval (multiple shooting: sparse derivatives)
+    m = n - 1  # intervals
+    w_v = ca.SX.sym("v", n - 2)
+    w_h = ca.SX.sym("h", m)
+    w_z = ca.SX.sym("z", 4, m)
+    v = ca.vertcat(0.0, w_v, 0.0)
+    x = v * v
+    u = (x[1:] - x[:-1]) / ca.DM(2.0 * ds)
+    g = [w_h * (v[:-1] + v[1:]) - ca.DM(2.0 * ds)]
+    lbg, ubg = [np.zeros(m)], [np.zeros(m)]
+    for fa, fb, fc in rows:
+        for col in range(fa.shape[1]):
+            for lo, hi in ((0, n - 1), (1, n)):  # the interval's start and end grid points
+                if np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0):
+                    g.append(ca.DM(fa[lo:hi, col]) * u + ca.DM(fb[lo:hi, col]) * x[lo:hi] + ca.DM(fc[lo:hi, col]))
+                    lbg.append(np.full(m, -np.inf))
+                    ubg.append(np.zeros(m))
+    step = _pendulum_step(pendulum)
+    d = ca.DM(dp.T)  # (2, n)
+    z_prev = ca.horzcat(ca.DM.zeros(4, 1), w_z[:, :-1])  # hanging still at the start
+    g.append(ca.vec(w_z - step.map(m)(z_prev, v[:-1].T, v[1:].T, d[:, :-1], d[:, 1:], w_h.T)))
+    lbg.append(np.zeros(4 * m))
+    ubg.append(np.zeros(4 * m))
+    if peak_rad is not None:  # the swing during the motion, at the grid points
+        g.append((w_z[0, :] ** 2 + w_z[2, :] ** 2).T)
+        lbg.append(np.zeros(m))
+        ubg.append(np.full(m, peak_rad**2))
+    theta, rate = w_z[[0, 2], -1], w_z[[1, 3], -1]  # at rest at the end: theta' = r
+    quad = (rate + pendulum.decay_per_s * theta) / pendulum.omega_d
+    g.append(ca.sumsqr(theta) + ca.sumsqr(quad))
+    lbg.append([0.0])
+    ubg.append([(SWING_MARGIN * tolerance_rad) ** 2])
+
+    # from TOPPRA's profile slowed by INITIAL_STRETCH (inside the limits) and the swing it gives
+    v_hi = np.sqrt(np.minimum(x_max[1:-1], 1e12))
+    v0 = np.concatenate([[0.0], np.clip(sd[1:-1] / INITIAL_STRETCH, MIN_SPEED, v_hi), [0.0]])
+    h0 = 2.0 * ds / (v0[:-1] + v0[1:])
+    z0 = np.asarray(step.mapaccum(m)(np.zeros(4), v0[:-1], v0[1:], dp[:-1].T, dp[1:].T, h0))
+    # the path's total jerk 1/2 int s_ddd^2 dt: u jumps by du between intervals whose middles lie tau apart
+    du, tau = u[1:] - u[:-1], 0.5 * (w_h[:-1] + w_h[1:])
+    jerk = 0.5 * ca.sum1(du * du / tau)
+    nlp = {"x": ca.vertcat(w_v, w_h, ca.vec(w_z)), "f": ca.sum1(w_h) + JERK_WEIGHT * jerk, "g": ca.vertcat(*g)}
+    opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes", "ipopt.max_iter": int(max_iter),
+            "ipopt.tol": 1e-8}
+    solver = ca.nlpsol("settled_law", "ipopt", nlp, opts)
+    res = solver(x0=np.concatenate([v0[1:-1], h0, z0.ravel(order="F")]),
+                 lbx=np.concatenate([np.full(n - 2, MIN_SPEED), np.zeros(m), np.full(4 * m, -np.inf)]),
+                 ubx=np.concatenate([v_hi, np.full(m, np.inf), np.full(4 * m, np.inf)]),
+                 lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
+    stats = solver.stats()
+    diagnostics: dict[str, Any] = {
+        "ipopt_status": stats.get("return_status", "unknown"),
+        "iterations": int(stats.get("iter_count", -1)),
+        "toppra_duration_s": law.base_duration_s,
+        "n_grid": int(n),
+    }
+    if not stats.get("success", False) or diagnostics["ipopt_status"] != "Solve_Succeeded":
+        return SettledLaw(SettledLawStatus.SOLVER_FAILED, f"IPOPT: {diagnostics['ipopt_status']}",
+                          diagnostics=diagnostics)
+    speeds = np.concatenate([[0.0], np.asarray(res["x"]).ravel()[: n - 2], [0.0]])
+    settled = TimeLaw.from_toppra(path, grid, speeds)
+    diagnostics["duration_s"] = settled.duration_s
+    if not math.isfinite(settled.duration_s):
+        return SettledLaw(SettledLawStatus.SOLVER_FAILED, "IPOPT: non-finite duration", diagnostics=diagnostics)
+    return SettledLaw(SettledLawStatus.OK, "", settled, diagnostics)
