@@ -302,8 +302,8 @@ def _checked_row(f: h5py.File, group: h5py.Group, entry: Entry, crane: Crane, wh
     stored: dict[str, Any] = {key: read_array(f, f"row/{key}", where, 10**6) for key in _ROW_FIELDS}
     for key, value in stored.items():
         expected = np.asarray(getattr(derived, key), dtype=np.float64)
-        same = np.allclose(value, expected, rtol=ROW_RTOL, atol=ROW_RTOL, equal_nan=True)
-        if value.shape != expected.shape or not same:
+        same = value.shape == expected.shape and np.allclose(value, expected, ROW_RTOL, ROW_RTOL, equal_nan=True)
+        if not same:
             raise LibraryFileError(
                 f"{where}: row/{key} is not its trajectory's: {rounded(value)[:6]} (shape {value.shape}), "
                 f"expected {rounded(expected)[:6]} (shape {expected.shape})"
