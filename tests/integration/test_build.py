@@ -37,6 +37,7 @@ from motionlib.progress import LogProgress, RichProgress
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import crash_safety  # noqa: E402 (benchmarks/crash_safety.py: the kill-and-resume cycles, the content digest)
+import fuzz  # noqa: E402 (benchmarks/fuzz.py: write_checkpoints)
 from crash_safety import content_digest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -252,18 +253,14 @@ def test_resume_replans_resealed_damaged_checkpoints(reference, tiny_spec, tmp_p
     """Issue 24 item 5: a checkpoint damaged and sealed again is checked like a library entry: discarded with a
     line naming the file and the key, and planned again; the library equals one built without interruption."""
     from motionlib.fileio import seal_hdf5
-    from motionlib.library.build import EntryOutcome, write_part
-    from motionlib.library.store import IndexRow
 
     spec, ref = LibrarySpec.load(tiny_spec), Library.open(reference[0])
     out = tmp_path / "lib.h5"
     parts = parts_dir_for(out)
     build_module._prepare_parts(parts, out, spec.digest, N_ENTRIES, resume=False)
+    paths = fuzz.write_checkpoints(ref, spec, parts)  # every entry checkpointed, as its build did
     damaged = {}
-    for entry, record in zip(spec.entries(), ref.entries, strict=True):  # every entry checkpointed, as planned
-        traj = ref.trajectory(record.row) if record.ok else None
-        row = IndexRow.from_trajectory(traj, ref.crane, entry.start_q) if traj is not None else None
-        path = write_part(parts, entry, EntryOutcome(entry.index, record.stage, record.reason, 0.1, traj, row))
+    for path, record in zip(paths, ref.entries, strict=True):
         if record.ok and len(damaged) < len(RESEALED_DAMAGE):
             key = list(RESEALED_DAMAGE)[len(damaged)]
             with h5py.File(path, "r+") as f:
