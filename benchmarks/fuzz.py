@@ -26,8 +26,9 @@ log is read as ``view``, ``inspect``, ``select`` and ``execute`` read it; a buil
 * ``clean``: a :class:`motionlib.errors.MotionlibError` (the one-line error the CLI prints);
 * ``accepted``: no error; for crane, scene and spec files an independent check
   (:func:`range_violations`) then looks at every number against the documented ranges,
-  and a violation counts as ``violation``; so does a checkpoint that ``build --resume`` keeps
-  although the library it goes into is refused by the library reader;
+  and a violation counts as ``violation``; so does a plan or library trajectory whose stored
+  path leaves its joint samples' tip path (:func:`path_violations`) and a checkpoint that
+  ``build --resume`` keeps although the library it goes into is refused by the library reader;
 * ``exception``: any other exception (the CLI would call it a bug: "internal error", exit status 70);
 * ``signal``: the process died (a segfault in a C library), ``hang``: no answer within
   ``--timeout`` s. Each case runs in a child process, so that these are counted and the
@@ -475,6 +476,38 @@ def range_violations(kind: str, value: Any) -> list[str]:
     return out
 
 
+#: Densest spacing (pieces) and largest distance (m) of :func:`path_violations`: the planner's joint samples trace
+#: the stored path (inverse kinematics along it, 200 Hz: about 1 cm apart at the crane's top tip speed).
+PATH_CHECK_POINTS_PER_PIECE = 8
+PATH_CHECK_M = 0.05
+
+
+def path_violations(traj: Any, crane: Any) -> list[str]:
+    """An accepted trajectory's stored tip path against its joint samples, independently of the reader.
+
+    The stored spline (``scipy.interpolate.PPoly`` of the stored breakpoints and coefficients, not
+    motionlib's TipSpline), sampled :data:`PATH_CHECK_POINTS_PER_PIECE` times per piece, must stay
+    within :data:`PATH_CHECK_M` of the tip positions ``crane.fk(q)`` of the joint samples: the path the
+    tracker follows is the motion the samples make. A finite absurd coefficient (issue 24 item 4) that
+    a reader lets through shows here.
+    """
+    from scipy.interpolate import PPoly
+    from scipy.spatial import cKDTree
+
+    x = traj.spline_breakpoints
+    s = (x[:-1, None] + np.diff(x)[:, None] * np.linspace(0.0, 1.0, PATH_CHECK_POINTS_PER_PIECE)).ravel()
+    with np.errstate(all="ignore"):
+        points = PPoly(traj.spline_coefficients, x)(s)
+    if not np.all(np.isfinite(points)):
+        return ["the stored path is not finite"]
+    distance = float(np.max(cKDTree(crane.fk_batch(traj.q)).query(points)[0]))
+    return [] if distance <= PATH_CHECK_M else [f"the stored path is {distance:.3g} m from the joint samples' tip"]
+
+
+#: Readers whose use returns the problems :func:`path_violations` found in the trajectories read.
+CHECKED_TRAJECTORIES = ("plan", "library", "checkpoint")
+
+
 # ====================================================================== readers
 @dataclass
 class Reader:
@@ -627,22 +660,22 @@ def _use_plan(path: Path) -> Any:
     traj = load_plan(path)
     with open_sealed(path, TRAJECTORY_SCHEMA) as f:
         crane, _ = embedded_models(f.attrs, str(path))
-    crane.fk_batch(traj.q)
-    return traj
+    return path_violations(traj, crane)
 
 
-def _use_library(path: Path) -> Any:
+def _use_library(path: Path) -> list[str]:
     from motionlib.fileio import json_safe
     from motionlib.library.store import Library
 
     lib = Library.open(path)
     json.dumps(json_safe(lib.summary()), allow_nan=False)
     _ = lib.crane, lib.scene, lib.metadata("spec"), lib.metadata("build")
+    problems = []
     for i in range(len(lib)):
-        lib.trajectory(i)
+        problems += [f"row {i}: {p}" for p in path_violations(lib.trajectory(i), lib.crane)]
     if len(lib):
         lib.select(lib.end_p[0], lib.start_q[0])
-    return lib
+    return problems
 
 
 @functools.cache
@@ -679,10 +712,9 @@ def _use_checkpoint(fixtures: Fixtures, path: Path) -> list[str]:
         raise LibraryFileError(discarded[0])
     build._assemble(spec, entries, parts, out, {"fuzz": "resume"})
     try:
-        _use_library(out)
+        return _use_library(out)
     except MotionlibError as exc:
         return [f"a kept checkpoint gives a library the reader refuses: {exc}"]
-    return []
 
 
 def _use_runlog(path: Path) -> Any:
@@ -733,8 +765,8 @@ def run_case(reader: Reader, path: Path) -> tuple[str, str]:
         return "clean", str(exc)[:300]
     except Exception as exc:  # noqa: BLE001 (what the harness is looking for)
         return "exception", f"{type(exc).__name__}: {str(exc)[:200]} | {traceback.format_exc(limit=-3)[-600:]}"
-    if reader.name in ("crane", "scene", "spec", "checkpoint"):
-        problems = value if reader.name == "checkpoint" else range_violations(reader.name, value)
+    if reader.name in ("crane", "scene", "spec", *CHECKED_TRAJECTORIES):
+        problems = value if reader.name in CHECKED_TRAJECTORIES else range_violations(reader.name, value)
         if problems:
             return "violation", "; ".join(problems)[:300]
     return "accepted", ""
@@ -848,14 +880,14 @@ def main() -> None:
                  args.budget) for n in names]
         budget = f" or {args.budget:.0f} s" if math.isfinite(args.budget) else ""
         print(f"{args.n} inputs per reader{budget}, seed {args.seed}, {args.workers} readers at a time; python "
-              f"{sys.version.split()[0]}; non-clean outcomes in {examples}")
-        header = f"{'reader':<8}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
+              f"{sys.version.split()[0]}; non-clean outcomes in {examples}; exception: the CLI's exit 70 (a bug)")
+        header = f"{'reader':<10}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
         print(header)
         pool = ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn"))
         with pool:  # (workers that are not daemons: each forks the children that run the cases)
             for fut in as_completed([pool.submit(_run_one, job) for job in jobs]):
                 name, counts, wall = fut.result()
-                print(f"{name:<8}{sum(counts):>10}" + "".join(f"{c:>11}" for c in counts)
+                print(f"{name:<10}{sum(counts):>10}" + "".join(f"{c:>11}" for c in counts)
                       + f"{sum(counts) / wall:>10.0f}", flush=True)
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
