@@ -10,20 +10,26 @@ values replaced by interesting ones (1e308, NaN, huge integers, strings, lists .
 scaled by powers of ten, byte flips, non-UTF-8 bytes, indentation changes, swapped and
 truncated lines. HDF5 files (plan, library, run log) get truncations, bit flips, deleted
 datasets, groups and attributes, changed dtypes and shapes, NaN, inf and huge values in
-the data, garbage and damaged JSON attributes (:func:`mutate_h5`: structural changes are
-sealed again, byte damage is not).
+the data, garbage and damaged JSON attributes, and the re-sealed cases of issue 24 (a scalar
+where an array belongs, such as a run log's ``events/t``; an absurd finite value such as a
+50 m or 1e308 spline coefficient) (:func:`mutate_h5`: structural changes are sealed again,
+byte damage is not).
 
 Each input goes through the reader's API and the use a command makes of it
 (:data:`READERS`): loading a crane builds its kinematics and a collision checker; a
 scene is checked like ``motionlib scene check`` (fcl queries at every start and point);
 a spec expands its entries; a stick script is stepped through; a plan, library or run
-log is read as ``view``, ``inspect``, ``select`` and ``execute`` read it. Outcomes:
+log is read as ``view``, ``inspect``, ``select`` and ``execute`` read it; a build checkpoint
+(``<OUT>.parts/<entry>.h5``) goes through what ``build --resume`` does with it
+(:func:`_use_checkpoint`). Outcomes:
 
 * ``clean``: a :class:`motionlib.errors.MotionlibError` (the one-line error the CLI prints);
 * ``accepted``: no error; for crane, scene and spec files an independent check
   (:func:`range_violations`) then looks at every number against the documented ranges,
-  and a violation counts as ``violation``;
-* ``exception``: any other exception (the CLI would call it a bug);
+  and a violation counts as ``violation``; so does a plan or library trajectory whose stored
+  path leaves its joint samples' tip path (:func:`path_violations`) and a checkpoint that
+  ``build --resume`` keeps although the library it goes into is refused by the library reader;
+* ``exception``: any other exception (the CLI would call it a bug: "internal error", exit status 70);
 * ``signal``: the process died (a segfault in a C library), ``hang``: no answer within
   ``--timeout`` s. Each case runs in a child process, so that these are counted and the
   run goes on with the next input.
@@ -224,6 +230,11 @@ GARBAGE_ATTRS: tuple[Any, ...] = (
     "json:null", "json:[]", "json:{}", 'json:{"name": 1}', -1, 0, 2**62, 1e308, float("nan"), True,
     b"\xff\xfe", "x" * 100_000, "motionlib.library", "motionlib.trajectory", "motionlib.runlog",
 )
+#: Finite values no stored quantity can plausibly take (m, rad, s): a 50 m spline coefficient, 1e308 (issue 24 item 4).
+ABSURD_FINITE = (50.0, -50.0, 1e6, 1e308, -1e308)
+#: Datasets the re-sealed cases of issue 24 damaged (items 1, 4 and 5): the run log's event times, a trajectory's
+#: stored spline and a checkpoint's index row; op 14 picks one of them when the file has one.
+ISSUE24_TARGETS = ("events/t", "spline_coefficients", "spline_breakpoints", "row/start_q", "row/end_p")
 GARBAGE_VALUES: tuple[Any, ...] = (
     None, "x", -1, 0, 1e308, -1e308, 1e-300, float("nan"), float("inf"), 10**30, [], {}, [1, 2], True, "9" * 50,
 )
@@ -250,7 +261,7 @@ def mutate_h5(data: bytes, path: Path, rng: np.random.Generator) -> None:
     from motionlib.fileio import seal_hdf5
 
     path.write_bytes(data)
-    ops = [int(rng.integers(14)) for _ in range(int(rng.integers(1, 3)))]
+    ops = [int(rng.integers(15)) for _ in range(int(rng.integers(1, 3)))]
     structural = [op for op in ops if op >= 4]
     for op in structural:
         try:
@@ -345,6 +356,17 @@ def _mutate_structure(f: Any, op: int, rng: np.random.Generator) -> None:
         else:
             a = a.reshape(-1)[:0]
         f[n] = a
+    elif op == 14 and datasets:  # issue 24's re-sealed cases: a scalar for an array, an absurd finite value
+        targets = [(n, d) for n, d in datasets if n.endswith(ISSUE24_TARGETS)] or datasets
+        n, d = _pick(rng, targets)
+        a = np.asarray(d[()])
+        del f[n]
+        if a.dtype.kind == "f" and a.size and rng.random() < 0.5:
+            flat = a.reshape(-1).copy()
+            flat[int(rng.integers(flat.size))] = _pick(rng, ABSURD_FINITE)
+            f[n] = flat.reshape(a.shape)
+        else:
+            f[n] = a.reshape(-1)[0] if a.size else 1.0
     elif op == 13 and len(datasets) >= 2:  # swap two datasets
         (n1, d1), (n2, d2) = _pick(rng, datasets), _pick(rng, datasets)
         a1, a2 = d1[()], d2[()]
@@ -454,6 +476,39 @@ def range_violations(kind: str, value: Any) -> list[str]:
     return out
 
 
+#: Points per spline piece and largest distance (m) of :func:`path_violations`: the planner's joint samples trace
+#: the stored path (inverse kinematics along it, 200 Hz: about 1 cm apart at the crane's top tip speed; 4.7 mm
+#: at most measured on a 56-entry log-loading library).
+PATH_CHECK_POINTS_PER_PIECE = 8
+PATH_CHECK_M = 0.05
+
+
+def path_violations(traj: Any, crane: Any) -> list[str]:
+    """An accepted trajectory's stored tip path against its joint samples, independently of the reader.
+
+    The stored spline (``scipy.interpolate.PPoly`` of the stored breakpoints and coefficients, not
+    motionlib's TipSpline), sampled :data:`PATH_CHECK_POINTS_PER_PIECE` times per piece, must stay
+    within :data:`PATH_CHECK_M` of the tip positions ``crane.fk(q)`` of the joint samples: the path the
+    tracker follows is the motion the samples make. A finite absurd coefficient (issue 24 item 4) that
+    a reader lets through shows here.
+    """
+    from scipy.interpolate import PPoly
+    from scipy.spatial import cKDTree
+
+    x = traj.spline_breakpoints
+    s = (x[:-1, None] + np.diff(x)[:, None] * np.linspace(0.0, 1.0, PATH_CHECK_POINTS_PER_PIECE)).ravel()
+    with np.errstate(all="ignore"):
+        points = PPoly(traj.spline_coefficients, x)(s)
+    if not np.all(np.isfinite(points)):
+        return ["the stored path is not finite"]
+    distance = float(np.max(cKDTree(crane.fk_batch(traj.q)).query(points)[0]))
+    return [] if distance <= PATH_CHECK_M else [f"the stored path is {distance:.3g} m from the joint samples' tip"]
+
+
+#: Readers whose use returns the problems :func:`path_violations` found in the trajectories read.
+CHECKED_TRAJECTORIES = ("plan", "library", "checkpoint")
+
+
 # ====================================================================== readers
 @dataclass
 class Reader:
@@ -462,7 +517,7 @@ class Reader:
     name: str
     suffix: str
     templates: list[bytes]
-    load: Callable[[Path], Any]  # the API and the use a command makes of it; returns what range_violations checks
+    load: Callable[[Path], Any]  # the API and a command's use; returns what range_violations checks or the problems
     kind: str = "text"  # text, csv or hdf5
 
     def make(self, seed: int, index: int, i: int, workdir: Path) -> Path:
@@ -485,10 +540,11 @@ class Fixtures:
     plan: Path
     runlog: Path
     spec: Path
+    checkpoints: Path
 
 
 def make_fixtures(workdir: Path) -> Fixtures:
-    """A 3-entry library of the lab crane (one entry unreachable), a plan file and a run log, in ``workdir``."""
+    """A 3-entry library of the lab crane (one entry unreachable), its checkpoints, a plan file and a run log."""
     import yaml
 
     from motionlib import Library, execute
@@ -519,7 +575,25 @@ def make_fixtures(workdir: Path) -> Fixtures:
     run = execute(lib.trajectory(0), lib.crane, lib.scene, mode="M6", operator="passive",
                   options=ExecuteOptions(time_limit_s=2.0), log_attrs={"library": str(library), "row": 0, "entry": 0})
     run.write_log(runlog, lib.crane, {"note": "fuzz"})
-    return Fixtures(library, plan, runlog, spec_path)
+    checkpoints = workdir / "fuzz-checkpoints"
+    if not checkpoints.exists():
+        checkpoints.mkdir()
+        write_checkpoints(lib, LibrarySpec.load(spec_path), checkpoints)
+    return Fixtures(library, plan, runlog, spec_path, checkpoints)
+
+
+def write_checkpoints(lib: Any, spec: Any, parts: Path) -> list[Path]:
+    """Into ``parts``, the checkpoints (``write_part``'s) the build of ``lib`` from ``spec`` wrote, in entry order."""
+    from motionlib.library.build import EntryOutcome, write_part
+    from motionlib.library.store import IndexRow
+
+    paths = []
+    for entry, record in zip(spec.entries(), lib.entries, strict=True):
+        traj = lib.trajectory(record.row) if record.ok else None
+        row = IndexRow.from_trajectory(traj, lib.crane, entry.start_q) if traj is not None else None
+        outcome = EntryOutcome(entry.index, record.stage, record.reason, record.plan_time_s, traj, row)
+        paths.append(write_part(parts, entry, outcome))
+    return paths
 
 
 @functools.cache
@@ -587,22 +661,61 @@ def _use_plan(path: Path) -> Any:
     traj = load_plan(path)
     with open_sealed(path, TRAJECTORY_SCHEMA) as f:
         crane, _ = embedded_models(f.attrs, str(path))
-    crane.fk_batch(traj.q)
-    return traj
+    return path_violations(traj, crane)
 
 
-def _use_library(path: Path) -> Any:
+def _use_library(path: Path) -> list[str]:
     from motionlib.fileio import json_safe
     from motionlib.library.store import Library
 
     lib = Library.open(path)
     json.dumps(json_safe(lib.summary()), allow_nan=False)
     _ = lib.crane, lib.scene, lib.metadata("spec"), lib.metadata("build")
+    problems = []
     for i in range(len(lib)):
-        lib.trajectory(i)
+        problems += [f"row {i}: {p}" for p in path_violations(lib.trajectory(i), lib.crane)]
     if len(lib):
         lib.select(lib.end_p[0], lib.start_q[0])
-    return lib
+    return problems
+
+
+@functools.cache
+def _spec(path: Path) -> Any:
+    from motionlib.library.spec import LibrarySpec
+
+    return LibrarySpec.load(path)
+
+
+def _use_checkpoint(fixtures: Fixtures, path: Path) -> list[str]:
+    """``build --resume`` with ``path`` as the checkpoint of entry 0 beside the good ones of the other entries.
+
+    The resume's scan (:func:`motionlib.library.build._scan_parts`) keeps or discards it; a discarded
+    checkpoint is a clean outcome (the discard line; the build would plan the entry again, which this
+    skips). A kept one is assembled into the library (``_assemble``) and the library read as
+    ``select`` and ``execute`` read it (:func:`_use_library`): a library the reader refuses means the
+    checkpoint was not checked as strictly as a library, returned as a problem (``violation``).
+    """
+    from motionlib.errors import LibraryFileError, MotionlibError
+    from motionlib.library import build
+    from motionlib.library.store import entry_id
+
+    spec = _spec(fixtures.spec)
+    run = path.with_name(path.name + ".resume")
+    shutil.rmtree(run, ignore_errors=True)
+    out = run / "lib.h5"
+    parts = build.parts_dir_for(out)
+    shutil.copytree(fixtures.checkpoints, parts)
+    shutil.copy(path, parts / f"{entry_id(0)}.h5")
+    entries = spec.entries()
+    discarded: list[str] = []
+    build._scan_parts(parts, entries, spec.crane, discarded.append)
+    if discarded:
+        raise LibraryFileError(discarded[0])
+    build._assemble(spec, entries, parts, out, {"fuzz": "resume"})
+    try:
+        return _use_library(out)
+    except MotionlibError as exc:
+        return [f"a kept checkpoint gives a library the reader refuses: {exc}"]
 
 
 def _use_runlog(path: Path) -> Any:
@@ -639,6 +752,8 @@ def make_readers(fixtures: Fixtures) -> dict[str, Reader]:
         "plan": Reader("plan", ".h5", [fixtures.plan.read_bytes()], _use_plan, "hdf5"),
         "library": Reader("library", ".h5", [fixtures.library.read_bytes()], _use_library, "hdf5"),
         "runlog": Reader("runlog", ".h5", [fixtures.runlog.read_bytes()], _use_runlog, "hdf5"),
+        "checkpoint": Reader("checkpoint", ".h5", [(fixtures.checkpoints / "000000.h5").read_bytes()],
+                             functools.partial(_use_checkpoint, fixtures), "hdf5"),
     }
 
 
@@ -651,8 +766,8 @@ def run_case(reader: Reader, path: Path) -> tuple[str, str]:
         return "clean", str(exc)[:300]
     except Exception as exc:  # noqa: BLE001 (what the harness is looking for)
         return "exception", f"{type(exc).__name__}: {str(exc)[:200]} | {traceback.format_exc(limit=-3)[-600:]}"
-    if reader.name in ("crane", "scene", "spec"):
-        problems = range_violations(reader.name, value)
+    if reader.name in ("crane", "scene", "spec", *CHECKED_TRAJECTORIES):
+        problems = value if reader.name in CHECKED_TRAJECTORIES else range_violations(reader.name, value)
         if problems:
             return "violation", "; ".join(problems)[:300]
     return "accepted", ""
@@ -738,7 +853,7 @@ def _run_one(args: tuple) -> tuple[str, list[int], float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=1_000_000, help="inputs per reader")
-    parser.add_argument("--readers", default="crane,scene,spec,script,plan,library,runlog")
+    parser.add_argument("--readers", default="crane,scene,spec,script,plan,library,runlog,checkpoint")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2, help="readers run in parallel")
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds without progress that count as a hang")
@@ -766,14 +881,14 @@ def main() -> None:
                  args.budget) for n in names]
         budget = f" or {args.budget:.0f} s" if math.isfinite(args.budget) else ""
         print(f"{args.n} inputs per reader{budget}, seed {args.seed}, {args.workers} readers at a time; python "
-              f"{sys.version.split()[0]}; non-clean outcomes in {examples}")
-        header = f"{'reader':<8}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
+              f"{sys.version.split()[0]}; non-clean outcomes in {examples}; exception: the CLI's exit 70 (a bug)")
+        header = f"{'reader':<10}{'inputs':>10}" + "".join(f"{o:>11}" for o in OUTCOMES) + f"{'inputs/s':>10}"
         print(header)
         pool = ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn"))
         with pool:  # (workers that are not daemons: each forks the children that run the cases)
             for fut in as_completed([pool.submit(_run_one, job) for job in jobs]):
                 name, counts, wall = fut.result()
-                print(f"{name:<8}{sum(counts):>10}" + "".join(f"{c:>11}" for c in counts)
+                print(f"{name:<10}{sum(counts):>10}" + "".join(f"{c:>11}" for c in counts)
                       + f"{sum(counts) / wall:>10.0f}", flush=True)
     finally:
         shutil.rmtree(workdir, ignore_errors=True)

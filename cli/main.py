@@ -14,11 +14,16 @@ solvers). Errors become one line on stderr here, at the edge, and nowhere else:
 
 Usage errors (a bad option or argument, an unknown command) are one line too,
 ``Error: <command>: <click's message> (<command> --help)``, exit status 2.
+
+With ``--json`` (every command that has it), the line on stderr is a JSON object instead,
+``{"error": "<the message above, without Error:>", "exit_code": <the exit status>}``
+(:class:`JsonError`), so a program reading the JSON output gets JSON for a failure too.
 """
 
 from __future__ import annotations
 
 import importlib
+import json
 import os
 import traceback
 from typing import Any
@@ -62,14 +67,54 @@ def debug_requested(ctx: click.Context) -> bool:
     return bool(ctx.params.get("debug")) or os.environ.get(DEBUG_ENV, "") not in ("", "0")
 
 
+def _innermost_context(ctx: click.Context, exc: BaseException) -> click.Context:
+    """The context of the innermost command the exception passed through (``ctx`` if none)."""
+    inner = ctx
+    for frame, _ in traceback.walk_tb(exc.__traceback__):
+        found = frame.f_locals.get("ctx")
+        if isinstance(found, click.Context):
+            inner = found
+    return inner
+
+
 def _command_path(ctx: click.Context, exc: BaseException) -> str:
     """``motionlib <command> [<subcommand>]`` of the innermost command the exception passed through."""
-    path = ctx.command_path
-    for frame, _ in traceback.walk_tb(exc.__traceback__):
-        inner = frame.f_locals.get("ctx")
-        if isinstance(inner, click.Context):
-            path = inner.command_path
-    return path
+    return _innermost_context(ctx, exc).command_path
+
+
+#: Key of the group context's ``meta`` holding the command line's arguments (after ``motionlib``).
+_ARGS_KEY = "motionlib.args"
+
+
+def _json_requested(ctx: click.Context, exc: BaseException) -> bool:
+    """The failing command was given ``--json``.
+
+    Its parsed ``as_json`` parameter when the command got that far, else (its options did not parse)
+    a ``--json`` among the arguments before ``--``.
+    """
+    inner = exc.ctx if isinstance(exc, click.UsageError) and exc.ctx is not None else _innermost_context(ctx, exc)
+    if "as_json" in inner.params:
+        return bool(inner.params["as_json"])
+    args: list[str] = ctx.meta.get(_ARGS_KEY, [])
+    return "--json" in (args[: args.index("--")] if "--" in args else args)
+
+
+class JsonError(click.ClickException):
+    """An error of a command given ``--json``: one JSON object on stderr, ``{"error": ..., "exit_code": ...}``."""
+
+    def __init__(self, message: str, exit_code: int):
+        super().__init__(message)
+        self.exit_code = exit_code  # type: ignore[misc]  # (click declares it per class; this one carries any)
+
+    def show(self, file: Any = None) -> None:
+        record = {"error": self.format_message(), "exit_code": self.exit_code}
+        click.echo(json.dumps(record, ensure_ascii=False), err=True)
+
+
+class InternalError(click.ClickException):
+    """An unexpected exception: a bug of motionlib (exit status :data:`BUG_EXIT_STATUS`)."""
+
+    exit_code = BUG_EXIT_STATUS
 
 
 class OneLineUsageError(click.ClickException):
@@ -108,7 +153,20 @@ class MotionlibGroup(click.Group):
         module = importlib.import_module(f"{__package__}.{module_name}")
         return getattr(module, attr)
 
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        ctx.meta[_ARGS_KEY] = list(args)  # for _json_requested, when a command's own options do not parse
+        return super().parse_args(ctx, args)
+
     def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return self._invoke_one_line(ctx)
+        except click.ClickException as exc:  # every error, as one line; as JSON with --json
+            if not _json_requested(ctx, exc.__cause__ or exc):
+                raise
+            raise JsonError(exc.format_message(), exc.exit_code) from exc
+
+    def _invoke_one_line(self, ctx: click.Context) -> Any:
+        """Invoke the command; every exception but an exit or an abort becomes a one-line ClickException."""
         try:
             return super().invoke(ctx)
         except click.UsageError as exc:  # a command's options and arguments, an unknown command
@@ -125,13 +183,11 @@ class MotionlibGroup(click.Group):
         except Exception as exc:
             if debug_requested(ctx):
                 raise
-            click.echo(
-                f"Error: {_command_path(ctx, exc)}: internal error ({one_line(f'{type(exc).__name__}: {exc}', 200)})."
+            raise InternalError(
+                f"{_command_path(ctx, exc)}: internal error ({one_line(f'{type(exc).__name__}: {exc}', 200)})."
                 " This is a bug in motionlib: please report it with the command line"
-                f" (motionlib --debug or {DEBUG_ENV}=1 shows the traceback).",
-                err=True,
-            )
-            ctx.exit(BUG_EXIT_STATUS)
+                f" (motionlib --debug or {DEBUG_ENV}=1 shows the traceback)."
+            ) from exc
 
 
 @click.group(cls=MotionlibGroup)

@@ -33,7 +33,10 @@ prints the same.
 
 Conventions of every command: SI units (m, rad, s); comma lists such as `--q q1,q2,q3,q4`
 may start with a negative number; `--json` prints one JSON object on stdout; an error is
-one line on stderr (`Error: ...`) and exit code 1 (2 for a usage error).
+one line on stderr (`Error: ...`) and exit code 1 (2 for a usage error, 70 for an internal
+error: a bug of motionlib, please report it). With `--json`, that line on stderr is a JSON
+object instead, `{{"error": "<the message>", "exit_code": <the exit code>}}`, for every kind of
+error.
 """
 
 

@@ -10,7 +10,9 @@ Crash safety. Every finished entry, successful or failed, is checkpointed at onc
 by the main process as one small HDF5 file ``<OUT>.parts/<entry id>.h5``, written to
 a temporary name, fsynced and renamed, so killing the build at any moment (SIGKILL
 included) loses no finished entry. ``resume=True`` plans only the entries without
-a checkpoint. ``<OUT>.parts/manifest.json`` holds the spec digest; resuming with a
+a checkpoint that passes the checks of a library entry (:func:`_open_part`); a checkpoint
+that fails them is discarded with a line naming the file and the key, and planned again.
+``<OUT>.parts/manifest.json`` holds the spec digest; resuming with a
 different spec (or crane, scene, planner options) is refused, and without
 ``resume`` an existing parts directory is an error, so checkpoints of different
 builds are never mixed. When every entry is done, the library is assembled in
@@ -56,15 +58,24 @@ from typing import Any
 import h5py
 import numpy as np
 
-from ..checks import check_scalar
+from ..checks import check_scalar, rounded, short
 from ..errors import InputError, LibraryFileError, PlanningError
 from ..fileio import atomic_output, decode_attr, hdf5_errors, open_sealed, read_array, sealed_hdf5_output
+from ..model.kinematics import Crane
 from ..planning.planner import PLANNER_VERSION
 from ..planning.trajectory import Trajectory, read_trajectory, write_trajectory
 from ..progress import Progress, make_progress
 from ..worker_process import armed_initializer
 from .spec import Entry, LibrarySpec, plan_options
-from .store import EntryRecord, IndexRow, LibraryWriter, entry_id, failure_patterns
+from .store import (
+    ENTRY_STATUSES,
+    EntryRecord,
+    IndexRow,
+    LibraryWriter,
+    check_against_row,
+    entry_id,
+    failure_patterns,
+)
 
 PART_SCHEMA = "motionlib.library-part"
 MANIFEST = "manifest.json"
@@ -230,13 +241,25 @@ def write_part(parts: Path, entry: Entry, outcome: EntryOutcome) -> Path:
 
 
 @contextlib.contextmanager
-def _open_part(path: Path, entry: Entry) -> Iterator[tuple[EntryRecord, IndexRow | None, h5py.Group | None]]:
-    """Read a checkpoint: its entry record, index row and trajectory group (valid inside the context).
+def _open_part(
+    path: Path, entry: Entry, crane: Crane
+) -> Iterator[tuple[EntryRecord, IndexRow | None, h5py.Group | None]]:
+    """Read a checkpoint, checked as strictly as a library entry: its record, index row and trajectory group.
+
+    The attributes must be of ``entry`` (schema, key, seed) with a status of
+    :data:`~motionlib.library.store.ENTRY_STATUSES`, a string stage and reason and a finite
+    ``plan_time_s >= 0``. An ok entry's trajectory must pass
+    :func:`~motionlib.planning.trajectory.read_trajectory` and
+    :func:`~motionlib.library.store.check_against_row` (``crane``'s limits, start at the entry's
+    ``start_q``), and its stored row must be the trajectory's (``IndexRow.from_trajectory``, to
+    :data:`ROW_RTOL`): the checks :meth:`~motionlib.library.store.Library.trajectory` makes, before
+    the checkpoint is copied into a library.
 
     Raises
     ------
     LibraryFileError
-        The checkpoint is unreadable, damaged or of another entry (the caller discards it).
+        The checkpoint is unreadable, damaged or of another entry (the caller discards it); the
+        message names the file and the attribute or dataset.
     """
     f = open_sealed(path, PART_SCHEMA)  # the seal is checked before libhdf5 reads a damaged checkpoint
     with f:
@@ -244,21 +267,51 @@ def _open_part(path: Path, entry: Entry) -> Iterator[tuple[EntryRecord, IndexRow
             a = {k: decode_attr(a, f"{path}: attribute {k!r}") for k, a in f.attrs.items()}
             if a.get("schema") != PART_SCHEMA or a.get("key") != entry.key or a.get("seed") != entry.seed:
                 raise LibraryFileError(f"{path}: checkpoint is not of entry {entry.index} ({entry.key!r}) of this spec")
-            ok = a["status"] == "ok"
-            record = _record(entry, ok, str(a["stage"]), str(a["reason"]), float(a["plan_time_s"]))
+            status, stage, reason = a.get("status"), a.get("stage"), a.get("reason")
+            if status not in ENTRY_STATUSES:
+                raise LibraryFileError(f"{path}: attribute 'status': expected 'ok' or 'failed', got {short(status)}")
+            if not isinstance(stage, str) or not isinstance(reason, str):
+                key, value = ("stage", stage) if not isinstance(stage, str) else ("reason", reason)
+                raise LibraryFileError(f"{path}: attribute {key!r}: expected a string, got {short(value)}")
+            try:
+                plan_time_s = check_scalar(a.get("plan_time_s"), "plan_time_s", ge=0.0)
+            except InputError as exc:
+                raise LibraryFileError(f"{path}: attribute {exc}") from exc
+            ok = status == "ok"
+            record = _record(entry, ok, stage, reason, plan_time_s)
             row: IndexRow | None = None
-            if ok:
-                fields: dict[str, Any] = {k: read_array(f, f"row/{k}", str(path), 10**6) for k in _ROW_FIELDS}
-                row = IndexRow(**fields)
             group = f.get("trajectory") if ok else None
             if ok and not isinstance(group, h5py.Group):
                 raise LibraryFileError(f"{path}: checkpoint of an ok entry without a trajectory")
             if group is not None:
-                read_trajectory(group)  # the whole trajectory is checked before it is copied into the library
+                row = _checked_row(f, group, entry, crane, str(path))
         yield record, row, group
 
 
-def _scan_parts(parts: Path, entries: list[Entry], log: Callable[[str], None]) -> dict[int, bool]:
+#: Largest difference of a checkpoint's stored row from the row of its trajectory, relative and, near 0, absolute
+#: (m, rad, s, m^3): the same computation, with a margin for another machine's rounding (a Dask worker's).
+ROW_RTOL = 1e-9
+
+
+def _checked_row(f: h5py.File, group: h5py.Group, entry: Entry, crane: Crane, where: str) -> IndexRow:
+    """The index row stored in checkpoint ``f`` once its trajectory ``group`` is checked and the row is its own."""
+    traj = read_trajectory(group)
+    derived = IndexRow.from_trajectory(traj, crane, entry.start_q)
+    label = f"entry {entry.key!r}"  # the row is derived: this checks the limits and the start against the entry's
+    check_against_row(traj, crane, derived.start_q, derived.end_p, derived.duration_s, f"{where}:{group.name}", label)
+    stored: dict[str, Any] = {key: read_array(f, f"row/{key}", where, 10**6) for key in _ROW_FIELDS}
+    for key, value in stored.items():
+        expected = np.asarray(getattr(derived, key), dtype=np.float64)
+        same = value.shape == expected.shape and np.allclose(value, expected, ROW_RTOL, ROW_RTOL, equal_nan=True)
+        if not same:
+            raise LibraryFileError(
+                f"{where}: row/{key} is not its trajectory's: {rounded(value)[:6]} (shape {value.shape}), "
+                f"expected {rounded(expected)[:6]} (shape {expected.shape})"
+            )
+    return IndexRow(**stored)
+
+
+def _scan_parts(parts: Path, entries: list[Entry], crane: Crane, log: Callable[[str], None]) -> dict[int, bool]:
     """Finished entries in ``parts``: index -> ok. Removes stale temporary files and unreadable checkpoints."""
     done: dict[int, bool] = {}
     for path in sorted(parts.iterdir()):
@@ -272,7 +325,7 @@ def _scan_parts(parts: Path, entries: list[Entry], log: Callable[[str], None]) -
         if index >= len(entries):
             raise LibraryFileError(f"{path}: checkpoint of entry {index}, but the spec has {len(entries)} entries")
         try:
-            with _open_part(path, entries[index]) as (record, _, _):
+            with _open_part(path, entries[index], crane) as (record, _, _):
                 done[index] = record.ok
         except LibraryFileError as exc:
             log(f"discarding checkpoint: {exc}")
@@ -542,7 +595,7 @@ def _build(
     _prepare_parts(parts, output, digest, len(entries), resume)
     n_workers = workers or default_workers()
     with _parts_lock(parts):
-        done = _scan_parts(parts, entries, progress.log)
+        done = _scan_parts(parts, entries, spec.crane, progress.log)
         todo = [e for e in entries if e.index not in done]
         setup = BuildSetup.from_spec(spec)
         progress.start(len(entries), len(done), sum(not ok for ok in done.values()))
@@ -597,7 +650,7 @@ def _assemble(
             path = parts / f"{entry_id(entry.index)}.h5"
             if not path.exists():
                 raise LibraryFileError(f"{path}: checkpoint missing; rerun with --resume")
-            with _open_part(path, entry) as (record, row, group):
+            with _open_part(path, entry, spec.crane) as (record, row, group):
                 writer.add(record, row, copy_from=group)
                 records.append(record)
     return records

@@ -110,11 +110,41 @@ _COUNT_ATTRS = ("n_entries", "n_ok", "n_failed")
 MAX_LIBRARY_ENTRIES = 1_000_000
 #: Tolerances of a trajectory's agreement with its index row: start (rad or m), end point (m), duration (relative).
 ROW_TOLERANCE = {"start_q": 1e-6, "end_p": 1e-6, "duration": 1e-9}
+#: Values of an entry's ``status``.
+ENTRY_STATUSES = ("ok", "failed")
 
 
 def entry_id(index: int) -> str:
     """Group name of entry ``index`` under ``/trajectories``: the index zero-padded to 6 digits."""
     return f"{int(index):06d}"
+
+
+def check_against_row(
+    traj: Trajectory, crane: Crane, start_q: Any, end_p: Any, duration_s: float, where: str, row: str
+) -> None:
+    """A stored trajectory keeps ``crane``'s limits and agrees with the index row it is stored under.
+
+    :func:`~motionlib.planning.trajectory.check_trajectory` with the crane, then the row's start
+    (``start_q`` (4,), rad and m), end tip point (``end_p`` (3,), m, ``f_fk(q(T))``) and duration (s)
+    against the trajectory, within :data:`ROW_TOLERANCE`.
+
+    Raises
+    ------
+    LibraryFileError
+        The first problem found; the message starts with ``where`` and names the ``row``.
+    """
+    check_trajectory(traj, where, crane)
+    tol = ROW_TOLERANCE
+    problems = []
+    if not np.allclose(traj.q[0], start_q, rtol=0.0, atol=tol["start_q"]):
+        problems.append(f"starts at {rounded(traj.q[0])}, {row} at {rounded(start_q)}")
+    end = crane.fk(traj.q[-1])
+    if not np.allclose(end, end_p, rtol=0.0, atol=tol["end_p"]):
+        problems.append(f"ends at {rounded(end)} m, {row} at {rounded(end_p)} m")
+    if not np.isclose(traj.duration_s, duration_s, rtol=tol["duration"], atol=0.0):
+        problems.append(f"lasts {traj.duration_s!r} s, {row} {duration_s!r:.30} s")
+    if problems:
+        raise LibraryFileError(f"{where}: does not match its {row}: {'; '.join(problems)}")
 
 
 # ====================================================================== records
@@ -596,23 +626,10 @@ class Library:
             if not isinstance(group, h5py.Group):
                 raise LibraryFileError(f"{self.path}: missing group /{name}")
             traj = read_trajectory(group)
-        self._check_row(traj, int(i), f"{self.path}:/{name}")
+        i = int(i)
+        check_against_row(traj, self.crane, self.start_q[i], self.end_p[i], float(self.duration_s[i]),
+                          f"{self.path}:/{name}", f"index row {i}")
         return traj
-
-    def _check_row(self, traj: Trajectory, i: int, where: str) -> None:
-        """A trajectory read for index row ``i`` keeps the crane's limits and agrees with its row."""
-        crane = self.crane
-        check_trajectory(traj, where, crane)
-        tol = ROW_TOLERANCE
-        problems = []
-        if not np.allclose(traj.q[0], self.start_q[i], rtol=0.0, atol=tol["start_q"]):
-            problems.append(f"starts at {rounded(traj.q[0])}, index row {i} at {rounded(self.start_q[i])}")
-        if not np.allclose(crane.fk(traj.q[-1]), self.end_p[i], rtol=0.0, atol=tol["end_p"]):
-            problems.append(f"ends at {rounded(crane.fk(traj.q[-1]))} m, index row {i} at {rounded(self.end_p[i])} m")
-        if not np.isclose(traj.duration_s, self.duration_s[i], rtol=tol["duration"], atol=0.0):
-            problems.append(f"lasts {traj.duration_s!r} s, index row {i} {float(self.duration_s[i])!r} s")
-        if problems:
-            raise LibraryFileError(f"{where}: does not match its index row: {'; '.join(problems)}")
 
     @functools.cached_property
     def entries(self) -> tuple[EntryRecord, ...]:
@@ -797,7 +814,7 @@ def _read_entries(path: Path, f: h5py.File, n: int, index_entry: np.ndarray) -> 
                 raise LibraryFileError(f"{where}/{key} holds a non-finite value")
             cols[key] = data
     ok = np.array([s == "ok" for s in cols["status"]], dtype=bool)
-    if not all(s in ("ok", "failed") for s in cols["status"]):
+    if not all(s in ENTRY_STATUSES for s in cols["status"]):
         raise LibraryFileError(f"{where}/status: expected 'ok' or 'failed'")
     expected_rows = np.where(ok, np.cumsum(ok) - 1, -1)
     if not np.array_equal(np.asarray(cols["row"]), expected_rows):

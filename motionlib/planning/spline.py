@@ -208,6 +208,19 @@ class TipSpline:
         """Cubic coefficients (4, m-1, 3), ``PPoly`` layout; read-only."""
         return self._c
 
+    def max_jump(self) -> float:
+        """Largest jump (m) of the curve at an interior breakpoint.
+
+        Piece ``i`` at its end, ``sum_k c[k, i] h_i^(3-k)`` with ``h_i = x_{i+1} - x_i``, against piece
+        ``i + 1`` at its start, ``c[3, i + 1]``; 0 to rounding for a fitted spline (a cubic spline is
+        C2). A damaged coefficient of any piece shows here or at the path's ends. Overflow gives inf.
+        """
+        c, h = self._c[:, :-1], np.diff(self._x)[:-1, None]
+        with np.errstate(all="ignore"):
+            ends = ((c[0] * h + c[1]) * h + c[2]) * h + c[3]
+            jump = np.abs(ends - self._c[3, 1:])
+        return float(np.max(np.where(np.isnan(jump), np.inf, jump), initial=0.0))
+
     def _clip(self, s: object) -> np.ndarray:
         arr = np.asarray(s, dtype=np.float64)
         if not np.all(np.isfinite(arr)):

@@ -291,7 +291,7 @@ _ROTATOR_ARRAYS = {"rotator/samples": "rotator", "rotator/control_points": "rota
 
 
 #: Largest offset (m) of a stored tip-path sample from the stored spline: they are the same curve (the planner
-#: stores the spline's own samples, offset 0 to rounding).
+#: stores the spline's own samples, offset 0 to rounding); also the largest jump of the spline at a breakpoint.
 PATH_ON_SPLINE_TOL_M = 1e-3
 #: Largest distance (m) of the joint samples' first and last tip from the path's ends (the planner's: < 1e-12 m;
 #: a path given to :meth:`~motionlib.planning.planner.Planner.plan_along` starts where its start configuration is).
@@ -371,7 +371,8 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
     ``spline_breakpoints`` (m,)); every value is finite; ``t`` starts at 0 and strictly
     increases; ``info.duration_s`` is ``t[-1]``; ``info.start_q`` is ``q[0]``; the stored tip
     path lies on the stored spline (``path/tip`` = spline(``path/s``) within
-    :data:`PATH_ON_SPLINE_TOL_M`), so finite but absurd path values (a 50 m or 1e308 coefficient)
+    :data:`PATH_ON_SPLINE_TOL_M`) and the spline is continuous (:meth:`TipSpline.max_jump` within the
+    same tolerance), so finite but absurd path values (a 50 m or 1e308 coefficient of any piece)
     are refused like NaN. With ``crane``, every sample keeps the crane's position, velocity,
     acceleration and pump limits within the verifier's 1 % tolerance, and the joint samples'
     tip starts and ends on the path (within :data:`PATH_ENDS_TOL_M`).
@@ -423,6 +424,9 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
         off = float(np.max(np.abs(spline(traj.path_s) - traj.path_tip)))
     if not off <= PATH_ON_SPLINE_TOL_M:
         fail(f"path/tip is not on path/spline (off by {off:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
+    jump = spline.max_jump()
+    if not jump <= PATH_ON_SPLINE_TOL_M:
+        fail(f"path/spline is not continuous (a jump of {jump:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
     start = np.asarray(traj.info.start_q, dtype=np.float64)
     if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
         fail(f"q[0] {rounded(traj.q[0])} differs from start_q {rounded(start)}")

@@ -37,6 +37,7 @@ from motionlib.progress import LogProgress, RichProgress
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import crash_safety  # noqa: E402 (benchmarks/crash_safety.py: the kill-and-resume cycles, the content digest)
+import fuzz  # noqa: E402 (benchmarks/fuzz.py: write_checkpoints)
 from crash_safety import content_digest  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -221,6 +222,59 @@ def test_resume_discards_damaged_and_unsealed_checkpoints(reference, tiny_spec, 
     assert [e.status for e in lib.entries] == [e.status for e in ref.entries] and lib.n_entries == N_ENTRIES
     for i in range(len(lib)):
         lib.trajectory(i)
+
+
+def _set(name: str, change):
+    """A damage of a checkpoint's dataset ``name``: ``change(array)`` returns its new value (any shape)."""
+
+    def damage(f: h5py.File) -> None:
+        value = change(f[name][()].copy())
+        del f[name]
+        f[name] = value
+
+    return damage
+
+
+#: Damage that leaves a checkpoint a sealed, readable HDF5 file (issue 24 item 5): the key named in the
+#: message, and the change.
+RESEALED_DAMAGE = {
+    "'status'": lambda f: f.attrs.__setitem__("status", "x"),
+    "row/start_q": _set("row/start_q", lambda a: a + [0.0, 0.1, 0.0, 0.0]),
+    "row/end_p": _set("row/end_p", lambda a: a + [0.0, 0.0, 0.2]),
+    "row/approach_t": _set("row/approach_t", lambda a: a[:-1]),
+    "row/clearance_m": _set("row/clearance_m", lambda a: np.nan),
+    "path/spline": _set("trajectory/path/spline_coefficients", lambda a: a + (a == a[0, 0, 0]) * 1e308),
+    "outside the limits": _set("trajectory/q", lambda q: q + np.outer(np.arange(len(q)) == 5, [0, 9, 0, 0])),
+}
+
+
+@pytest.mark.slow
+def test_resume_replans_resealed_damaged_checkpoints(reference, tiny_spec, tmp_path):
+    """Issue 24 item 5: a checkpoint damaged and sealed again is checked like a library entry: discarded with a
+    line naming the file and the key, and planned again; the library equals one built without interruption."""
+    from motionlib.fileio import seal_hdf5
+
+    spec, ref = LibrarySpec.load(tiny_spec), Library.open(reference[0])
+    out = tmp_path / "lib.h5"
+    parts = parts_dir_for(out)
+    build_module._prepare_parts(parts, out, spec.digest, N_ENTRIES, resume=False)
+    paths = fuzz.write_checkpoints(ref, spec, parts)  # every entry checkpointed, as its build did
+    damaged = {}
+    for path, record in zip(paths, ref.entries, strict=True):
+        if record.ok and len(damaged) < len(RESEALED_DAMAGE):
+            key = list(RESEALED_DAMAGE)[len(damaged)]
+            with h5py.File(path, "r+") as f:
+                RESEALED_DAMAGE[key](f)
+            seal_hdf5(path)
+            damaged[path] = key
+    assert len(damaged) == len(RESEALED_DAMAGE)
+    log = io.StringIO()
+    summary = build_library(spec, out, workers=2, resume=True, progress=LogProgress("building", log))
+    lines = [ln for ln in log.getvalue().splitlines() if "discarding checkpoint" in ln]
+    for path, key in damaged.items():
+        assert any(f"discarding checkpoint: {path}" in ln and key in ln for ln in lines), (key, "\n".join(lines))
+    assert summary.n_planned == len(damaged) == len(lines)
+    assert content_digest(out) == content_digest(reference[0])
 
 
 def test_resume_refuses_checkpoints_of_another_spec(tiny_spec, tmp_path):
