@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from motionlib.analysis.recording import GrappleEvent, Recording, read_recording, write_recording
-from motionlib.analysis.segmentation import WorkState, segment_recording
+from motionlib.analysis.segmentation import WorkState, position_noise, segment_recording
 from motionlib.analysis.work_stats import joint_activity, joint_usage, time_distribution
 from motionlib.errors import ModelFileError
 from motionlib.model.kinematics import Crane
@@ -23,23 +23,30 @@ def minimum_jerk(u: np.ndarray) -> np.ndarray:
     return 10 * u**3 - 15 * u**4 + 6 * u**5
 
 
-def synthetic(scene_file: str | None = "obstacles/forwarder-site.yaml", events: bool = True):
-    """Bunk -> pile -> bunk cycles with known boundaries; returns (recording, [(state, t0, t1), ...])."""
+BUNK_Q = np.array([0.0, 1.2746, -1.9927, 0.3])  # tip at forwarder-site's bunk-center point (above the bunk region)
+PILE_Q = np.array([1.0201, 0.6616, -1.3149, 1.0])  # tip above pile-left
+LOAD_CYCLES = [  # (state, duration s, from, to); pauses hold the pose
+    (WorkState.OTHER, 1.5, BUNK_Q, BUNK_Q),
+    (WorkState.S6, 4.0, BUNK_Q, PILE_Q),
+    (WorkState.S7, 4.0, PILE_Q, PILE_Q),
+    (WorkState.S8, 5.0, PILE_Q, BUNK_Q),
+    (WorkState.S9, 3.0, BUNK_Q, BUNK_Q),
+    (WorkState.S6, 3.5, BUNK_Q, PILE_Q),
+    (WorkState.S7, 5.0, PILE_Q, PILE_Q),
+    (WorkState.S8, 4.5, PILE_Q, BUNK_Q),
+    (WorkState.S9, 2.5, BUNK_Q, BUNK_Q),
+]
+GRASPS = (WorkState.S7, WorkState.S15)
+RELEASES = (WorkState.S9, WorkState.S17)
+
+
+def synthetic(scene_file: str | None = "obstacles/forwarder-site.yaml", events: bool = True, plan=LOAD_CYCLES):
+    """Cycles of ``plan`` with known boundaries, an event in the middle of every grasp and release pause.
+
+    Returns (recording, [(state, t0, t1), ...]).
+    """
     crane = Crane.load("forwarder")
     scene = Scene.load(scene_file) if scene_file else None
-    bunk = np.array([0.0, 1.2746, -1.9927, 0.3])  # tip above the bunk (forwarder-site bunk-center)
-    pile = np.array([1.0201, 0.6616, -1.3149, 1.0])  # tip above pile-left
-    plan = [  # (state, duration s, from, to); pauses hold the pose
-        (WorkState.OTHER, 1.5, bunk, bunk),
-        (WorkState.S6, 4.0, bunk, pile),
-        (WorkState.S7, 4.0, pile, pile),
-        (WorkState.S8, 5.0, pile, bunk),
-        (WorkState.S9, 3.0, bunk, bunk),
-        (WorkState.S6, 3.5, bunk, pile),
-        (WorkState.S7, 5.0, pile, pile),
-        (WorkState.S8, 4.5, pile, bunk),
-        (WorkState.S9, 2.5, bunk, bunk),
-    ]
     t_all, q_all, truth, evs = [], [], [], []
     t0 = 0.0
     for state, dur, a, b in plan:
@@ -48,8 +55,8 @@ def synthetic(scene_file: str | None = "obstacles/forwarder-site.yaml", events: 
         t_all.append(t0 + u * dur)
         q_all.append(a + minimum_jerk(u)[:, None] * (b - a))
         truth.append((state, t0, t0 + dur))
-        if state in (WorkState.S7, WorkState.S9):
-            evs.append(GrappleEvent(round(t0 + dur / 2, 2), "close" if state is WorkState.S7 else "open"))
+        if state in GRASPS + RELEASES:
+            evs.append(GrappleEvent(round(t0 + dur / 2, 2), "close" if state in GRASPS else "open"))
         t0 += dur
     t = np.concatenate([*t_all, [t0]])
     q = np.concatenate([*q_all, plan[-1][3][None]])
@@ -57,14 +64,57 @@ def synthetic(scene_file: str | None = "obstacles/forwarder-site.yaml", events: 
     return rec, truth
 
 
-@pytest.mark.parametrize("events", [True, False], ids=["grapple-events", "places-only"])
-def test_segmentation_recovers_known_boundaries(events):
-    rec, truth = synthetic(events=events)
-    seg = segment_recording(rec)
-    got = [(s.state, s.t0, s.t1) for s in seg.segments]
+def assert_boundaries(rec, truth, tol_s=0.1):
+    got = [(s.state, s.t0, s.t1) for s in segment_recording(rec).segments]
     assert [g[0] for g in got] == [w[0] for w in truth]
     for (_, g0, g1), (_, w0, w1) in zip(got, truth, strict=True):
-        assert abs(g0 - w0) <= 0.1 and abs(g1 - w1) <= 0.1, (g0, g1, w0, w1)
+        assert abs(g0 - w0) <= tol_s and abs(g1 - w1) <= tol_s, (g0, g1, w0, w1)
+
+
+@pytest.mark.parametrize("events", [True, False], ids=["grapple-events", "places-only"])
+def test_segmentation_recovers_known_boundaries(events):
+    assert_boundaries(*synthetic(events=events))
+
+
+def test_encoder_noise_raises_the_rest_speed_above_it():
+    """Issue 24 item 10: 1e-4 rad of joint noise made the whole recording "other" (rest speed below the noise)."""
+    rec, truth = synthetic()
+    noisy = Recording(rec.t, rec.q + np.random.default_rng(7).normal(0.0, 1e-4, rec.q.shape), None, rec.events,
+                      rec.crane, rec.scene, "noisy")
+    # the ends move inward by the time a minimum-jerk start takes to reach the raised rest speed (~0.1 s here)
+    assert_boundaries(noisy, truth, tol_s=0.2)
+    # the estimated tip noise against the injected noise's own tip displacement, fk(q + n) - fk(q), per coordinate
+    want = np.std(noisy.tip - rec.tip, axis=0)
+    np.testing.assert_allclose(position_noise(noisy), want, rtol=0.15)
+
+
+UNLOAD_CYCLES = [  # 003 Table 3.1's unload cycle: the empty moves return to the bunk-center point (S18)
+    (WorkState.OTHER, 1.5, BUNK_Q, BUNK_Q),
+    (WorkState.S16, 4.0, BUNK_Q, PILE_Q),
+    (WorkState.S17, 3.0, PILE_Q, PILE_Q),
+    (WorkState.S18, 4.0, PILE_Q, BUNK_Q),
+    (WorkState.S15, 4.0, BUNK_Q, BUNK_Q),
+    (WorkState.S16, 4.5, BUNK_Q, PILE_Q),
+    (WorkState.S17, 3.0, PILE_Q, PILE_Q),
+    (WorkState.S18, 4.0, PILE_Q, BUNK_Q),
+    (WorkState.OTHER, 2.0, BUNK_Q, BUNK_Q),
+]
+
+
+def test_empty_return_to_the_bunk_center_point_is_s18():
+    """Issue 24 item 10: bunk-center (z 4.7) lies above the bunk region plus margin; the return was S6."""
+    rec, truth = synthetic(plan=UNLOAD_CYCLES)
+    assert not rec.scene.regions[0].contains(rec.tip[-1], margin=0.5)  # the point the issue names
+    assert_boundaries(rec, truth)
+
+
+def test_release_and_regrasp_in_one_pause_keeps_both_events():
+    """Issue 24 item 10: a pause with close, open, close kept only the last event (one S7)."""
+    plan = [*LOAD_CYCLES[:2], (WorkState.S7, 2.0, PILE_Q, PILE_Q), (WorkState.S9, 2.0, PILE_Q, PILE_Q),
+            (WorkState.S7, 2.0, PILE_Q, PILE_Q), *LOAD_CYCLES[3:]]
+    rec, truth = synthetic(scene_file=None, plan=plan)  # equal parts: split half-way between the events
+    assert [e.action for e in rec.events] == ["close", "open", "close", "open", "close", "open"]
+    assert_boundaries(rec, truth)
 
 
 def test_without_scene_or_events_pauses_alternate_grasp_and_release():
