@@ -34,6 +34,8 @@ S17 release logs, S18 move grapple to load bunk.
    otherwise (an empty move that reaches neither logs nor the bunk, e.g. to the transport
    pose). A pause with a grasp is S7 (S15 at the bunk), with a release S9 (S17 at a pile).
    Everything else (before the first move, pauses without a grasp or release) is ``other``.
+   A gap in the recording (no sample for more than 1 s) is cut out of its state as ``other``;
+   a state cut by a gap counts as two occurrences.
 
 "At" a region means above its footprint: the tip within the region's horizontal extent grown by
 ``PLACE_MARGIN_M``, at any height from the region's floor less that margin up. The regions are
@@ -54,6 +56,7 @@ from ..checks import check_params, param
 from ..errors import InputError
 from ..model.scene import Region, Scene
 from .recording import Recording
+from .signals import SMOOTHING_S, position_noise, window_s, window_velocity
 
 
 class WorkState(enum.Enum):
@@ -129,7 +132,7 @@ class SegmentationOptions:
     noise_factor: float = param(3.0, ge=0.0, le=100.0)
     min_pause_s: float = param(0.5, ge=0.0)
     min_move_m: float = param(0.5, ge=0.0)
-    smoothing_s: float = param(0.1, ge=0.0)
+    smoothing_s: float = param(SMOOTHING_S, ge=0.0)
 
     def __post_init__(self) -> None:
         check_params(self)
@@ -188,50 +191,23 @@ class Segmentation:
         return [s for s in self.segments if s.state.is_move]
 
 
-def _window_s(t: np.ndarray, smoothing_s: float) -> float:
-    """The averaging window (s): ``smoothing_s``, at least two sample intervals (a central difference)."""
-    return max(smoothing_s, 2.0 * float(np.median(np.diff(t))))
-
-
 def tip_speed(rec: Recording, smoothing_s: float = 0.0) -> np.ndarray:
     """Tip speed (m/s) per sample, (N,): the norm of the tip velocity averaged over ``smoothing_s`` (s).
 
-    The average of the velocity over ``[t - w/2, t + w/2]`` is ``(p(t + w/2) - p(t - w/2)) / w``
-    (``p = fk(q)`` interpolated linearly between samples, the window cut at the recording's ends),
-    with ``w`` = ``smoothing_s`` but at least two sample intervals.
+    :func:`~motionlib.analysis.signals.window_velocity` of ``p = fk(q)``: the window ``smoothing_s``,
+    at least two sample intervals.
     """
-    t, tip = rec.t, rec.tip
-    half = _window_s(t, smoothing_s) / 2.0
-    lo, hi = np.maximum(t - half, t[0]), np.minimum(t + half, t[-1])
-    dp = np.stack([np.interp(hi, t, tip[:, k]) - np.interp(lo, t, tip[:, k]) for k in range(3)], axis=1)
-    return np.linalg.norm(dp, axis=1) / (hi - lo)
-
-
-def position_noise(rec: Recording) -> np.ndarray:
-    """Standard deviation (m) of the white noise on each tip coordinate, (3,), estimated from the data.
-
-    A robust high-pass residual: the second difference ``p[i+1] - 2 p[i] + p[i-1]`` of the tip
-    positions carries ``sqrt(6)`` times the noise of one sample and of the motion only
-    ``a dt^2``, negligible at recording rates; its median absolute deviation (times 1.4826,
-    the Gaussian's standard deviation per MAD) divided by ``sqrt(6)`` is the noise.
-    """
-    tip = rec.tip
-    if tip.shape[0] < 3:
-        return np.zeros(3)
-    d2 = tip[2:] - 2.0 * tip[1:-1] + tip[:-2]
-    mad = np.median(np.abs(d2 - np.median(d2, axis=0)), axis=0)
-    return 1.4826 * mad / np.sqrt(6.0)
+    return np.linalg.norm(window_velocity(rec.t, rec.tip, smoothing_s), axis=1)
 
 
 def speed_noise(rec: Recording, smoothing_s: float) -> float:
     """The tip speed's noise at rest (m/s) for the window of :func:`tip_speed`.
 
-    Position noise ``sigma_k`` per coordinate (:func:`position_noise`) gives the window's velocity
-    ``(p(t + w/2) - p(t - w/2)) / w`` a noise of ``sqrt(2) sigma_k / w`` per coordinate; the result is
-    the root sum of squares over the coordinates (the RMS of the speed at rest).
+    Position noise ``sigma_k`` per tip coordinate (:func:`~motionlib.analysis.signals.position_noise`)
+    gives the window's velocity ``(p(t + w/2) - p(t - w/2)) / w`` a noise of ``sqrt(2) sigma_k / w`` per
+    coordinate; the result is the root sum of squares over the coordinates (the RMS of the speed at rest).
     """
-    w = _window_s(rec.t, smoothing_s)
-    return float(np.sqrt(2.0) * np.linalg.norm(position_noise(rec)) / w)
+    return float(np.sqrt(2.0) * np.linalg.norm(position_noise(rec.tip)) / window_s(rec.t, smoothing_s))
 
 
 def find_moves(rec: Recording, speed: np.ndarray, thresholds: tuple[float, float, float],
@@ -264,7 +240,7 @@ def find_moves(rec: Recording, speed: np.ndarray, thresholds: tuple[float, float
 
 
 def _thresholds(o: SegmentationOptions, noise: float) -> tuple[float, float, float]:
-    """``(v_on, v_off, v_rest)`` (m/s): the options' values, the rest speed at least ``noise_factor`` times the noise."""
+    """``(v_on, v_off, v_rest)`` (m/s): the options', the rest speed at least ``noise_factor`` times the noise."""
     rest = max(o.v_rest_m_s, o.noise_factor * noise)
     off = max(o.v_off_m_s, rest)
     on = max(o.v_on_m_s, off * o.v_on_m_s / o.v_off_m_s)
@@ -344,7 +320,24 @@ def segment_recording(rec: Recording, options: SegmentationOptions | None = None
                 loaded = e.action == "close"
     if not moves:
         notes.append("no move found: the tip never moved faster than the move threshold over min_move_m")
-    return Segmentation(segments, speed, o, bool(rec.events), notes, noise, thresholds)
+    return Segmentation(_cut_at_gaps(segments, rec), speed, o, bool(rec.events), notes, noise, thresholds)
+
+
+def _cut_at_gaps(segments: list[Segment], rec: Recording) -> list[Segment]:
+    """The segments with every gap of the recording (no data) cut out as ``other``; a state cut counts twice."""
+    out: list[Segment] = []
+    t = rec.t
+    gaps = list(rec.gaps)
+    for s in segments:
+        i0 = s.i0
+        while gaps and i0 <= gaps[0] < s.i1:
+            k = gaps.pop(0)
+            out += [Segment(s.state, i0, k, float(t[i0]), float(t[k]))] if k > i0 else []
+            out.append(Segment(WorkState.OTHER, k, k + 1, float(t[k]), float(t[k + 1])))
+            i0 = k + 1
+        if s.i1 > i0:
+            out.append(Segment(s.state, i0, s.i1, float(t[i0]), float(t[s.i1])))
+    return out
 
 
 def _pause_actions(rec: Recording, i0: int, i1: int, last: bool) -> list[tuple[float, str]]:
