@@ -238,7 +238,7 @@ def replan_recording(
     notes = []
     if rec.scene is None:
         notes.append("the recording has no scene: replanned along the recorded paths only, without obstacles")
-    ratio = joint_speed_ratio(rec.crane, rec.t, rec.q, seg.options.smoothing_s)
+    ratio = joint_speed_ratio(rec.crane, rec.t, rec.q)
     rows = []
     for s in seg.moves:
         peak = ratio[s.i0 : s.i1 + 1].max(axis=0)

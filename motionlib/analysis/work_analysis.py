@@ -115,6 +115,6 @@ def analyze_recording(
     rec = recording if isinstance(recording, Recording) else read_recording(recording, crane, scene, columns)
     seg = segment_recording(rec, options)
     activity = joint_activity(rec)
-    ratio = joint_speed_ratio(rec.crane, rec.t, rec.q, seg.options.smoothing_s).max(axis=0)
+    ratio = joint_speed_ratio(rec.crane, rec.t, rec.q).max(axis=0)
     return WorkAnalysis(rec, seg, time_distribution(seg, rec.duration_s), joint_usage(rec, seg, activity), activity,
                         ratio)
