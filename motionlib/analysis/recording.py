@@ -126,6 +126,8 @@ def read_recording(path: str | Path, crane: Crane | None = None, scene: Scene | 
     path = Path(path)
     cmap = columns if isinstance(columns, ColumnMap) else ColumnMap.load(columns) if columns else DEFAULT_MAP
     if path.suffix.lower() in (".h5", ".hdf5"):
+        if columns is not None:
+            raise InputError(f"{path}: a column map reads CSV recordings, not run logs")
         return _read_runlog(path, crane, scene, cmap)
     return _read_csv(path, crane, scene, cmap)
 
@@ -230,9 +232,9 @@ def _read_csv(path: Path, crane: Crane | None, scene: Scene | None, cmap: Column
         scene = _load_scene(Path(cmap.source), cmap.scene, crane, "key 'scene'")
     q = np.stack([col[c] for c in JOINT_COLUMNS[1:]], axis=1)
     sticks = np.stack([col[c] for c in STICK_COLUMNS], axis=1) if STICK_COLUMNS[0] in index else None
-    degrees = any(cmap.columns[c][1] != 1.0 for c in ("q1", "q2", "q3"))
+    converted = any(cmap.columns[c][1] != 1.0 for c in ("q1", "q2", "q3"))
     return _checked(path, t, q, sticks, events, crane, scene, header.get("operator", ""),
-                    header.get("description", ""), cmap, notes, degrees)
+                    header.get("description", ""), cmap, notes, converted)
 
 
 def _column_index(path: Path, lineno: int, names: list[str], cmap: ColumnMap) -> tuple[dict[str, tuple[str, int]],
@@ -351,6 +353,7 @@ def _checked(
     crane: Crane, scene: Scene | None, operator: str, description: str, cmap: ColumnMap, notes: list[str],
     converted: bool,
 ) -> Recording:
+    """The recording, checked (see the module docstring); ``converted``: the angles came through a unit conversion."""
     if t.size < 2:
         raise ModelFileError(f"{path}: expected at least 2 samples, got {t.size}")
     dt = np.diff(t)

@@ -315,7 +315,7 @@ def segment_recording(rec: Recording, options: SegmentationOptions | None = None
             state = WorkState.OTHER
         add(state, a, b)
         for e in rec.events:  # events during the move: what the grapple holds changes there
-            if t[a] < e.t < t[b]:
+            if t[a] <= e.t < t[b]:
                 notes.append(f"grapple {e.action} at {e.t:g} s falls inside the move {t[a]:g}-{t[b]:g} s")
                 loaded = e.action == "close"
     if not moves:
