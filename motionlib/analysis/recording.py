@@ -270,9 +270,11 @@ def _without_duplicates(path: Path, lines: list[int], values: np.ndarray, action
     same = same_t & np.all(values[1:] == values[:-1], axis=1)
     if actions:
         same &= np.array([a == b for a, b in zip(actions[1:], actions[:-1], strict=True)])
-    for k in np.flatnonzero(same_t & ~same):
-        raise ModelFileError(f"{path}:{lines[k + 1]}: t: two different samples at {values[k, 0]:g} s (lines "
-                             f"{lines[k]} and {lines[k + 1]})")
+    differ = np.flatnonzero(same_t & ~same)
+    if differ.size:
+        j = int(differ[0])
+        raise ModelFileError(f"{path}:{lines[j + 1]}: t: two different samples at {values[j, 0]:g} s (lines "
+                             f"{lines[j]} and {lines[j + 1]})")
     if same.any():
         k = int(np.argmax(same)) + 1
         if cmap.duplicates == "error":
