@@ -257,7 +257,8 @@ def _column_index(path: Path, lineno: int, names: list[str], cmap: ColumnMap) ->
                              f"{', '.join(sticks)}")
     used = {i for _, i in index.values()}
     ignored = [c or f"#{i + 1}" for i, c in enumerate(names) if i not in used]
-    return index, [f"ignored columns: {', '.join(ignored)}"] if ignored else []
+    more = f" and {len(ignored) - 20} more" if len(ignored) > 20 else ""
+    return index, [f"ignored columns: {', '.join(ignored[:20])}{more}"] if ignored else []
 
 
 def _without_duplicates(path: Path, lines: list[int], values: np.ndarray, actions: list[str], cmap: ColumnMap,
