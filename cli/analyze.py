@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import click
 
-from .options import crane_option, json_option, scene_option
+from .options import FiniteFloatRange, crane_option, json_option, scene_option
 from .output import emit_json
 
 
@@ -16,7 +18,11 @@ from .output import emit_json
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 @click.option("--replan", is_flag=True,
               help="Also replan every recorded move along its path and freely, and print the saving (003 Paper I).")
-def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan) -> None:
+@click.option("--columns", "columns_file", type=click.Path(dir_okay=False),
+              help="Column map (YAML, docs/recording-format.md): the file's column names, units, numeric grapple.")
+@click.option("--rest-speed", type=FiniteFloatRange(min=1e-4, max=0.05), default=0.01, show_default=True,
+              help="Tip speed (m/s) below which the crane is at rest; raised above the recording's noise.")
+def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan, columns_file, rest_speed) -> None:
     """Split RECORDING (CSV or run log, docs/recording-format.md) into the states of 003 Table 3.1.
 
     Prints the time distribution (n, median time per occurrence, share of the total) and how
@@ -24,11 +30,15 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan) -> Non
     recorded time of every move beside its time replanned along the operator's path and freely.
     """
     from motionlib import Crane, Scene
+    from motionlib.analysis.column_map import ColumnMap
+    from motionlib.analysis.segmentation import SegmentationOptions
     from motionlib.analysis.work_analysis import analyze_recording
 
+    columns = ColumnMap.load(columns_file) if columns_file else None
     crane = Crane.load(crane_name) if crane_name else None
     scene = Scene.load(scene_file, crane=crane) if scene_file else None
-    result = analyze_recording(recording, crane=crane, scene=scene)
+    result = analyze_recording(recording, crane=crane, scene=scene, columns=columns,
+                               options=SegmentationOptions(v_rest_m_s=rest_speed))
     report = result.to_dict()
     replanned = None
     if replan:
@@ -58,6 +68,8 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan) -> Non
     click.echo("    k                 " + "".join(f"{k:>7d}" for k in range(5)))
     click.echo("    whole recording   " + "".join(f"{100 * v:6.1f}%" for v in u.overall))
     click.echo("    crane manipulation" + "".join(f"{100 * v:6.1f}%" for v in u.manipulation))
+    for note in result.notes:
+        click.echo(f"  note: {note}")
     if replanned is not None:
         _echo_replan(replanned)
     for path in report.get("plots", []):
@@ -65,8 +77,10 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan) -> Non
 
 
 def _echo_replan(report) -> None:
-    def cell(r) -> str:
-        return f"{r.duration_s:8.2f}" if r.status.value == "ok" else f"{r.status.value:>8}"
+    def cell(r) -> str:  # "*": the recording's own timing bounds the replanned one
+        if r.status.value != "ok":
+            return f"{'n/a' if r.status.value == 'not possible' else 'failed':>8}"
+        return f"{r.duration_s:7.2f}{' ' if math.isnan(r.planned_s) else '*'}"
 
     click.echo("  moves replanned (s): recorded, along the recorded path, free")
     click.echo(f"    {'state':<6} {'t0':>7} {'recorded':>9} {'along':>8} {'free':>8}")
@@ -79,9 +93,9 @@ def _echo_replan(report) -> None:
                        f"{tot['replanned_s']:.1f} s, saving {tot['saving_s']:.1f} s "
                        f"({100 * tot['saving_s'] / tot['recorded_s']:.0f} %)")
     for m in report.motions:
-        for which in ("along", "free"):
-            r = getattr(m, which)
-            if r.status.value == "failed":
-                click.echo(f"    {m.state} at {m.t0:.1f} s, {which}: {r.reason}")
+        reasons = {r.reason: which for which, r in (("free", m.free), ("along", m.along)) if r.reason}
+        for reason, which in reasons.items():
+            if reason not in ("no scene", "free replanning not asked for"):
+                click.echo(f"    {m.state} at {m.t0:.1f} s, {which}: {reason}")
     for note in report.notes:
         click.echo(f"    note: {note}")

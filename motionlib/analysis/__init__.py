@@ -4,6 +4,10 @@ Modules
 -------
 recording
     The import format of recorded crane work (CSV, run-log HDF5) and its strict reader.
+column_map
+    How to read a machine's recording: column names, units, a numeric grapple, duplicates and gaps.
+signals
+    Window-averaged velocities, the noise of a recording, joint speeds against the crane's limits.
 segmentation
     A recording split into the work-cycle states of 003 Table 3.1.
 work_stats

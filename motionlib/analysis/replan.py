@@ -18,11 +18,26 @@ move of a segmented recording (S6, S8, S16, S18 of 003 Table 3.1):
 * **free**: motionlib's planner between the same end points (the recorded start
   configuration, the recorded end tip point), in the recording's scene with its own
   collision-free path (:func:`motionlib.planning.planner.plan`). Without a scene this is
-  not possible and the row says so.
+  not possible and the row says so; a free plan slower than the recording says why (its own
+  path keeps the planner's clearances).
 
 The deviation of an along-path result from the recorded path is measured independently of
 the spline: the largest distance of the trajectory's tip (forward kinematics of its samples)
 from the recorded tip polyline.
+
+Two bounds keep the comparison honest:
+
+* **the recording's own timing**: the recorded motion is itself a motion along the recorded
+  path within the limits (checked below), so replanning along it is never reported slower than
+  the recording. When the replanned timing is slower (the smoothed path and the verification's
+  safety factor cost a few percent on an already time-optimal motion), the row reports the
+  recorded time, keeps the planner's own in ``planned_s`` and says why.
+* **the crane's limits**: a move whose recorded joint speeds exceed the crane file's limits by
+  more than :data:`~motionlib.analysis.signals.SPEED_TOLERANCE`
+  (:func:`~motionlib.analysis.signals.joint_speed_ratio`) was made by a faster machine than the
+  crane file describes (or the recording's units are wrong): it is not replanned (status
+  ``not possible``, the reason names the joint and the ratio) and never enters the totals as a
+  negative saving.
 """
 
 from __future__ import annotations
@@ -45,6 +60,7 @@ from ..planning.planner import Planner, PlanOptions, PlanResult
 from ..planning.spline import TipSpline
 from .recording import Recording
 from .segmentation import Segment, Segmentation, segment_recording
+from .signals import SPEED_TOLERANCE, joint_speed_ratio
 
 #: Spacing (m) at which the recorded tip polyline is resampled to measure deviations.
 _POLYLINE_STEP_M = 0.002
@@ -101,6 +117,7 @@ class Replanning:
     duration_s: float  # NaN unless OK
     reason: str = ""
     deviation_m: float = math.nan  # along the path: largest tip distance from the recorded path (m)
+    planned_s: float = math.nan  # the planner's own duration (s) when the recording's timing bounds it
 
 
 @dataclass(frozen=True)
@@ -116,6 +133,9 @@ class MotionReplan:
     recorded_s : float
         The move's recorded duration (s).
     along, free : Replanning
+    speed_ratio : float
+        The move's largest recorded joint speed as a fraction of its limit
+        (:func:`~motionlib.analysis.signals.joint_speed_ratio`).
     """
 
     state: str
@@ -124,6 +144,7 @@ class MotionReplan:
     recorded_s: float
     along: Replanning
     free: Replanning
+    speed_ratio: float = math.nan
 
     def saving_s(self, which: str) -> float:
         """Recorded minus replanned time (s) for ``which`` = ``along`` or ``free``; NaN when it failed."""
@@ -171,6 +192,8 @@ class ReplanReport:
                 out["reason"] = r.reason
             if not math.isnan(r.deviation_m):
                 out["deviation_m"] = r.deviation_m
+            if not math.isnan(r.planned_s):
+                out["planned_s"] = r.planned_s
             return out
 
         return {
@@ -178,7 +201,7 @@ class ReplanReport:
             "scene": self.scene,
             "motions": [
                 {"state": m.state, "t0": m.t0, "t1": m.t1, "recorded_s": m.recorded_s,
-                 "along": part(m.along), "free": part(m.free)}
+                 "speed_ratio": _or_none(m.speed_ratio), "along": part(m.along), "free": part(m.free)}
                 for m in self.motions
             ],
             "totals": {"along": self.totals("along"), "free": self.totals("free")},
@@ -215,8 +238,18 @@ def replan_recording(
     notes = []
     if rec.scene is None:
         notes.append("the recording has no scene: replanned along the recorded paths only, without obstacles")
+    ratio = joint_speed_ratio(rec.crane, rec.t, rec.q)
     rows = []
     for s in seg.moves:
+        peak = ratio[s.i0 : s.i1 + 1].max(axis=0)
+        j = int(np.argmax(peak))
+        if peak[j] > 1.0 + SPEED_TOLERANCE:
+            why = (f"the recording moves q{j + 1} at {peak[j]:.2f} times the crane file's speed limit (tolerance "
+                   f"{1.0 + SPEED_TOLERANCE:g}): faster than crane {rec.crane.name!r}; check the crane file and the "
+                   "recording's units")
+            skip = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, why)
+            rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, skip, skip, float(peak[j])))
+            continue
         along = _along(rec, s, planners[s.state.loaded, True], o)
         if not o.free:
             free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "free replanning not asked for")
@@ -224,7 +257,13 @@ def replan_recording(
             free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "no scene")
         else:
             free = _from_result(planners[s.state.loaded, False].plan(rec.q[s.i0], rec.tip[s.i1]))
-        rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free))
+            if free.status is ReplanStatus.OK and free.duration_s > s.duration_s:
+                free = replace(free, reason=f"slower than the recording's {s.duration_s:.3f} s: the planner's own "
+                               "path keeps the planner's clearances, the recorded one may not")
+        rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free, float(peak[j])))
+    faster = sum(m.speed_ratio > 1.0 + SPEED_TOLERANCE for m in rows)
+    if faster:
+        notes.append(f"{faster} move(s) faster than the crane file's speed limits allow: not replanned")
     return ReplanReport(rows, rec.source, rec.scene.name if rec.scene is not None else None, notes)
 
 
@@ -272,10 +311,14 @@ def _along(rec: Recording, s: Segment, planner: Planner, o: ReplanOptions) -> Re
     )
     result = planner.plan_along(rec.q[s.i0], spline, telescope)
     r = _from_result(result)
-    if r.status is ReplanStatus.OK and result.trajectory is not None:
-        tip = rec.crane.fk_batch(result.trajectory.q)
-        return Replanning(r.status, r.duration_s, r.reason, path_deviation(tip, recorded))
-    return r
+    if r.status is not ReplanStatus.OK or result.trajectory is None:
+        return r
+    if r.duration_s > s.duration_s:  # the recording's own timing is the bound (module docstring)
+        why = (f"replanned {r.duration_s:.3f} s is slower than the recording's {s.duration_s:.3f} s (the smoothed "
+               "path and the verification's safety factor): the recording's timing kept as the bound")
+        return Replanning(ReplanStatus.OK, s.duration_s, why, 0.0, r.duration_s)
+    tip = rec.crane.fk_batch(result.trajectory.q)
+    return Replanning(r.status, r.duration_s, r.reason, path_deviation(tip, recorded))
 
 
 def _from_result(result: PlanResult) -> Replanning:

@@ -45,6 +45,9 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
    same as ``v' = s + f`` for a steady acceleration;
 6. position by the trapezoidal rule (end stops are applied by the plant).
 
+The valve's saturation bounds the flow ``y``, not the velocity: while the oil spring releases,
+``v`` exceeds the flow's speed, within :func:`speed_overshoot_bound` for a constant load.
+
 ``model="first_order"`` (the fast option): no spool state and no compliance; the joint
 velocity follows the pump-shared command with the first-order lag
 ``tau_v v' = y - v`` (exact step), its change bounded by ``a_relief h``; the load does not act back.
@@ -63,6 +66,7 @@ them per joint.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -155,6 +159,32 @@ def actuators_substep(state, u, f, b, bm, h: float, alpha: float, second_order: 
             q[i] += (v[i] + 0.5 * dv) * h
             v[i] += dv
     return k
+
+
+def speed_overshoot_bound(qd_min: float, qd_max: float, damping_ratio: float) -> tuple[float, float]:
+    """Bounds ``(v_min, v_max)`` of a joint's velocity (rad/s or m/s) under any flow within ``[qd_min, qd_max]``.
+
+    The oil spring (step 3 of the module docstring) turns the pump-shared flow ``y`` into the
+    velocity ``v = h * y`` for a constant load, ``h`` the impulse response of
+    ``omega^2 / (s^2 + 2 zeta omega s + omega^2)``; with ``y`` anywhere in ``[qd_min, qd_max]``,
+    ``v <= qd_max H+ - qd_min H-`` with ``H+ - H- = 1`` and ``H- = a / (1 - a)``, the integral of
+    ``h``'s negative lobes (the step response's successive extremes ``1 + a, 1 - a^2, 1 + a^3, ...``,
+    ``a = exp(-zeta pi / sqrt(1 - zeta^2))`` the step overshoot). The bound is reached by a flow
+    reversed at every half period of the ringing (bang-bang at the oil spring's resonance); the
+    valve lag, the relief valves and a single reversal stay below it. Independent of ``omega``.
+
+    Parameters
+    ----------
+    qd_min, qd_max : float
+        The valve's flow saturation as joint speeds (``qd_min < 0 < qd_max``).
+    damping_ratio : float
+        ``zeta`` in (0, 1); 1 or more: no overshoot.
+    """
+    if damping_ratio >= 1.0:
+        return qd_min, qd_max
+    a = math.exp(-damping_ratio * math.pi / math.sqrt(1.0 - damping_ratio**2))
+    lobes = a / (1.0 - a)
+    return qd_min - lobes * (qd_max - qd_min), qd_max + lobes * (qd_max - qd_min)
 
 
 class HydraulicJoints:

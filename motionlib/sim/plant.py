@@ -25,13 +25,17 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
    the capacity sags against any command (a crane file without ``relief_pressure``: the net bound
    ``accel_factor * qdd_max_i``); ``model="first_order"`` is the simpler option without spool state,
    compliance and reaction (its acceleration bound is ``accel_factor * qdd_max_i``);
-5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity into the
-   stop is zeroed (counted in ``hard_stop_hits``).
+5. end-of-stroke hard stops: ``q`` is clamped to ``[q_min, q_max]``, the velocity and the
+   acceleration into the stop are zeroed (counted in ``hard_stop_hits``); the oil's pressure is
+   left to the actuator model (it builds toward the relief pressure while the valve pushes into
+   the stop; resetting it to the load's reaction stored the impact spike of a stopped grapple and
+   threw the joint back out at up to 15 times its speed).
 
 The machine's limits are physical here: the flow into every joint never exceeds its
 saturation and the sum never exceeds the pump (``peak_pump_ratio`` <= 1); the joint
 *velocity* of the second-order model can overshoot the flow's speed transiently (the oil
-spring gives back what it stored), by at most the step response's overshoot.
+spring gives back what it stored), for a constant load within
+:func:`~motionlib.sim.hydraulics.speed_overshoot_bound` (docs/runtime.md, "Joint speed overshoot").
 
 Grapple rotator (cranes with a ``rotator`` section)
 ---------------------------------------------------
@@ -122,7 +126,7 @@ from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
 from .contact import ContactParams, ContactSurfaces, penalty_force
-from .hydraulics import HydraulicJoints, Q, S, V, Y, actuators_substep
+from .hydraulics import A, HydraulicJoints, Q, V, Y, actuators_substep
 
 MODELS = ("second_order", "first_order")
 
@@ -333,7 +337,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
         Largest contact force (N, magnitude, normal and friction) on the grapple in the period.
     """
     n = u.shape[0]
-    q, v, s = joints[Q], joints[V], joints[S]
+    q, v, acc = joints[Q], joints[V], joints[A]
     _, jac = tip_point_jacobian(g, q[0], q[1], q[2], q[3])
     f = np.zeros(n)
     b, bm = np.zeros(n), np.zeros(n)
@@ -373,7 +377,7 @@ def integrate_period(u, n_sub: int, h: float, joints, alpha: float, second_order
                 q[i] = q_max[i] if upper else q_min[i]
                 if (v[i] > 0.0) if upper else (v[i] < 0.0):
                     v[i] = 0.0
-                    s[i] = -f[i]
+                    acc[i] = 0.0  # the stop took the acceleration: none into the next substep's rod coupling
                 if not at_stop[i]:
                     at_stop[i] = True
                     hits += 1
