@@ -7,6 +7,7 @@ The crane and scene are the ones embedded in the library. The run stops when it 
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import click
@@ -57,7 +58,9 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
                "Default 1,1,1.")
 @click.option("--accommodation", "force_bound", type=FiniteFloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
               help="Force accommodation (001 section 2.5), with the contact of the ground and the scene's obstacles "
-              "on: a steady push of the stick into the ground settles at 0.8 of this force (N).")
+              "on: a steady push of the stick into the ground settles at 0.8 of this force (N); the obstacle guard "
+              "lets the grapple reach the surface along the accommodation's axes; a bound so low that the "
+              "contact loop rings is warned about.")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
               help="Base axes of the accommodation (any of x, y, z).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
@@ -70,6 +73,8 @@ def execute(
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
+    from motionlib.errors import ContactLoopWarning
+    from motionlib.sim.execute import contact_loop_check
     from motionlib.sim.plant import SimParams
 
     vision = _vision_options(vision_target, vision_gains)
@@ -86,9 +91,14 @@ def execute(
                              sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                              stick_crf=stick_crf, vision=vision, accommodation=accommodation)
     entry = int(lib.entry[row])
-    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
-                  start_q=current, options=options,
-                  log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
+    warning = contact_loop_check(options)
+    if warning:  # before the run: a gain that makes the contact ring
+        click.echo(f"warning: {warning}", err=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ContactLoopWarning)  # said above, in one line
+        run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
+                      start_q=current, options=options,
+                      log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
     report: dict[str, Any] = {
         **run.summary.to_dict(),
         "settled": run.settled,
@@ -108,7 +118,10 @@ def execute(
         report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
         report["vision_seen_fraction"] = run.vision_seen_fraction
     if accommodation is not None:
-        report["peak_contact_force_n"] = run.loop.diagnostics["peak_contact_force_n"]
+        for key in ("peak_contact_force_n", "steady_contact_force_n", "contact_force_p10_n", "contact_force_p90_n",
+                    "contact_hold_s"):
+            report[key] = run.loop.diagnostics[key]
+        report["contact_loop_warning"] = warning
     if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
         report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
         report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
@@ -168,7 +181,10 @@ def _print_report(s: dict[str, Any]) -> None:
         click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m, seen in "
                    f"{s['vision_seen_steps']} of {s['vision_steps']} steps ({100 * s['vision_seen_fraction']:.0f} %)")
     if "peak_contact_force_n" in s:
-        click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground and obstacles)")
+        click.echo(f"  contact force     {s['steady_contact_force_n']:.0f} N steady over the longest hold "
+                   f"({s['contact_hold_s']:.2f} s; 10-90 %: {s['contact_force_p10_n']:.0f}-"
+                   f"{s['contact_force_p90_n']:.0f} N), {s['peak_contact_force_n']:.0f} N at most "
+                   "(ground and obstacles)")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")
