@@ -30,7 +30,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.interpolate import splev, splprep
@@ -45,6 +45,9 @@ from ..planning.planner import Planner, PlanOptions, PlanResult
 from ..planning.spline import TipSpline
 from .recording import Recording
 from .segmentation import Segment, Segmentation, segment_recording
+
+if TYPE_CHECKING:
+    from ..progress import Progress
 
 #: Spacing (m) at which the recorded tip polyline is resampled to measure deviations.
 _POLYLINE_STEP_M = 0.002
@@ -187,7 +190,8 @@ class ReplanReport:
 
 
 def replan_recording(
-    rec: Recording, segmentation: Segmentation | None = None, options: ReplanOptions | None = None
+    rec: Recording, segmentation: Segmentation | None = None, options: ReplanOptions | None = None,
+    progress: Progress | None = None,
 ) -> ReplanReport:
     """Replan every recorded move of ``rec`` along its path and freely (see the module docstring).
 
@@ -197,6 +201,8 @@ def replan_recording(
     segmentation : Segmentation, optional
         The recording's states (default: :func:`segment_recording` with default options).
     options : ReplanOptions, optional
+    progress : Progress, optional
+        Receives one item per move as it is replanned (``motionlib analyze --replan`` on a terminal).
 
     Returns
     -------
@@ -216,15 +222,24 @@ def replan_recording(
     if rec.scene is None:
         notes.append("the recording has no scene: replanned along the recorded paths only, without obstacles")
     rows = []
-    for s in seg.moves:
-        along = _along(rec, s, planners[s.state.loaded, True], o)
-        if not o.free:
-            free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "free replanning not asked for")
-        elif rec.scene is None:
-            free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "no scene")
-        else:
-            free = _from_result(planners[s.state.loaded, False].plan(rec.q[s.i0], rec.tip[s.i1]))
-        rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free))
+    if progress is not None:
+        progress.start(len(seg.moves))
+    try:
+        for s in seg.moves:
+            along = _along(rec, s, planners[s.state.loaded, True], o)
+            if not o.free:
+                free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "free replanning not asked for")
+            elif rec.scene is None:
+                free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "no scene")
+            else:
+                free = _from_result(planners[s.state.loaded, False].plan(rec.q[s.i0], rec.tip[s.i1]))
+            rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free))
+            if progress is not None:
+                progress.advance(along.status is ReplanStatus.OK, f"{s.state.value} at {s.t0:.1f} s: along "
+                                 f"{along.status.value}, free {free.status.value}")
+    finally:
+        if progress is not None:
+            progress.close()
     return ReplanReport(rows, rec.source, rec.scene.name if rec.scene is not None else None, notes)
 
 

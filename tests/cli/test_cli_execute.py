@@ -9,14 +9,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_tty import run_on_tty
 from click.testing import CliRunner
 from motionlib_cli.main import cli
 
 from motionlib.control.runlog import read_runlog
-from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter
+from motionlib.library.store import EntryRecord, IndexRow, Library, LibraryWriter
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner
+from motionlib.sim.execute import ExecuteOptions, execute
+from motionlib.viz.run_plots import timeseries_figure
 
 JSON_KEYS = (
     "cycle_time_s", "final_error_m", "total_jerk", "peak_acceleration_m_s2", "max_deviation_m", "handover_time_s",
@@ -106,6 +109,39 @@ def test_novice_in_m6_with_plots_and_text_output(library, tmp_path: Path):
     assert "cycle time" in out and "total jerk" in out and "peak swing" in out
     assert "settle ratio" in out and "residual" in out and "overshoot" in out
     assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == ["path.png", "smoothness.png", "timeseries.png"]
+
+
+def test_timeseries_qd_command_panel_has_a_legend(library):
+    """Issue 24 item 16: the joint command panel names its four lines (joint, unit) in the crane's joint order."""
+    path, ends = library
+    lib = Library.open(path)
+    run = execute(lib.trajectory(0), lib.crane, lib.scene, options=ExecuteOptions(time_limit_s=0.5))
+    ax = timeseries_figure(run).axes[3]
+    lines = ax.get_lines()
+    assert len(lines) == run.arrays["qd_cmd"].shape[1] == 4
+    for j, line in enumerate(lines):  # reference: the column each line draws
+        np.testing.assert_array_equal(line.get_ydata(), run.arrays["qd_cmd"][:, j])
+    legend = ax.get_legend()
+    assert legend is not None
+    assert [t.get_text() for t in legend.get_texts()] == [
+        "slew (rad/s)", "boom (rad/s)", "jib (rad/s)", "telescope (m/s)"]
+
+
+@pytest.mark.slow
+def test_execute_shows_progress_on_a_terminal_only(library):
+    """Issue 24 item 16: on a terminal ``execute`` says what it does (selection, the run) under a bar; --json: nothing.
+
+    Reference: the run's own report (its library row and simulated time, on stdout as JSON).
+    """
+    path, ends = library
+    args = ("execute", str(path), "--target", ",".join(map(str, ends[0])), "--time-limit", "2")
+    code, out, tty = run_on_tty(*args, "--json")
+    assert code == 0 and tty == "", tty
+    report = json.loads(out)
+    code, out, tty = run_on_tty(*args)
+    assert code == 0, tty
+    assert f"library row {report['library_row']} selected" in tty and f"{report['simulated_s']:.1f} s simulated" in tty
+    assert "2/2" in tty and "cycle time" in out
 
 
 def test_scripted_operator_in_traded_mode(library, tmp_path: Path):
