@@ -12,8 +12,12 @@ import sys
 def run_on_tty(*args: str, timeout: float = 300.0) -> tuple[int, str, str]:
     """``motionlib ARGS`` with stderr on a pty: (exit code, stdout, what the terminal received, escapes removed)."""
     master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-c", "from motionlib_cli.main import cli; cli()", *args],
-                            stdout=subprocess.PIPE, stderr=slave, stdin=subprocess.DEVNULL)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", "from motionlib_cli.main import cli; cli()", *args],
+        stdout=subprocess.PIPE,
+        stderr=slave,
+        stdin=subprocess.DEVNULL,
+    )
     os.close(slave)
     chunks = []
     while True:

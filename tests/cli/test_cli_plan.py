@@ -79,7 +79,7 @@ def test_plan_plot_lists_its_figures_and_path3d_draws_the_tip_path_red(tmp_path:
     mask = np.abs(rgba[..., :3] - drawn).max(axis=2) < 12.0
     s = np.asarray(pump.get_xdata())
     x0, x1 = ax.transData.transform([[s[0], 0.0], [s[-1], 0.0]])[:, 0].round().astype(int)
-    covered = mask[:, x0 + 2:x1 - 2].any(axis=0)
+    covered = mask[:, x0 + 2 : x1 - 2].any(axis=0)
     assert covered.mean() > 0.95, covered.mean()  # reference: every pixel column the path spans
 
 
