@@ -7,7 +7,7 @@ import math
 import click
 
 from .options import FiniteFloatRange, crane_option, json_option, scene_option
-from .output import emit_json
+from .output import emit_json, tty_progress
 
 
 @click.command()
@@ -44,7 +44,8 @@ def analyze(recording, crane_name, scene_file, as_json, plot_dir, replan, column
     if replan:
         from motionlib.analysis.replan import replan_recording
 
-        replanned = replan_recording(result.recording, result.segmentation)
+        replanned = replan_recording(result.recording, result.segmentation,
+                                     progress=tty_progress("replanning moves", as_json))
         report["replan"] = replanned.to_dict()
     if plot_dir:
         from motionlib.viz.work_plots import plot_work

@@ -7,12 +7,13 @@ The crane and scene are the ones embedded in the library. The run stops when it 
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import click
 
 from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_option, mode_option, vector_option
-from .output import emit_json
+from .output import emit_json, tty_steps
 
 
 def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
@@ -57,7 +58,9 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
                "Default 1,1,1.")
 @click.option("--accommodation", "force_bound", type=FiniteFloatRange(min=0.0, min_open=True, max=1e6), metavar="N",
               help="Force accommodation (001 section 2.5), with the contact of the ground and the scene's obstacles "
-              "on: a steady push of the stick into the ground settles at 0.8 of this force (N).")
+              "on: a steady push of the stick into the ground settles at 0.8 of this force (N); the obstacle guard "
+              "lets the grapple reach the surface along the accommodation's axes; a bound so low that the "
+              "contact loop rings is warned about.")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
               help="Base axes of the accommodation (any of x, y, z).")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
@@ -70,6 +73,8 @@ def execute(
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
+    from motionlib.errors import ContactLoopWarning
+    from motionlib.sim.execute import contact_loop_check
     from motionlib.sim.plant import SimParams
 
     vision = _vision_options(vision_target, vision_gains)
@@ -78,46 +83,58 @@ def execute(
         accommodation = AccommodationOptions(force_bound, axes=accommodation_axes)
     elif accommodation_axes != "xyz":
         raise click.UsageError("--accommodation-axes needs --accommodation")
-    lib = Library.open(library)
-    selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
-    row = int(selection.indices[0])
-    controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
-    options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
-                             sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
-                             stick_crf=stick_crf, vision=vision, accommodation=accommodation)
-    entry = int(lib.entry[row])
-    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
-                  start_q=current, options=options,
-                  log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
-    report: dict[str, Any] = {
-        **run.summary.to_dict(),
-        "settled": run.settled,
-        "status": run.status.value,
-        "mode": run.mode.value,
-        "operator": operator_spec,
-        "library_row": row,
-        "library_entry": entry,
-        "simulated_s": run.log.t_end,
-        "real_time_factor": run.loop.real_time_factor,
-        "hard_stop_hits": run.loop.diagnostics["hard_stop_hits"],
-        "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
-        "log": str(log_path) if log_path else None,
-    }
-    if vision is not None:
-        report["vision_target"] = run.log.attrs["vision_target"]
-        report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
-        report["vision_seen_fraction"] = run.vision_seen_fraction
-    if accommodation is not None:
-        report["peak_contact_force_n"] = run.loop.diagnostics["peak_contact_force_n"]
-    if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
-        report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
-        report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
-    if log_path:
-        run.write_log(log_path, lib.crane, report)
-    if plot_dir:
-        from motionlib.viz.run_plots import plot_run
+    with tty_steps("execute", 3 if plot_dir else 2, as_json) as step:
+        lib = Library.open(library)
+        selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
+        row = int(selection.indices[0])
+        controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
+        options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
+                                 sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
+                                 stick_crf=stick_crf, vision=vision, accommodation=accommodation)
+        entry = int(lib.entry[row])
+        warning = contact_loop_check(options)
+        if warning:  # before the run: a gain that makes the contact ring
+            click.echo(f"warning: {warning}", err=True)
+        step(f"library row {row} selected; running the closed loop (time limit {time_limit:g} s)")
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ContactLoopWarning)  # said above, in one line
+            run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
+                          start_q=current, options=options,
+                          log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
+        step(f"{run.log.t_end:.1f} s simulated")
+        report: dict[str, Any] = {
+            **run.summary.to_dict(),
+            "settled": run.settled,
+            "status": run.status.value,
+            "mode": run.mode.value,
+            "operator": operator_spec,
+            "library_row": row,
+            "library_entry": entry,
+            "simulated_s": run.log.t_end,
+            "real_time_factor": run.loop.real_time_factor,
+            "hard_stop_hits": run.loop.diagnostics["hard_stop_hits"],
+            "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
+            "log": str(log_path) if log_path else None,
+        }
+        if vision is not None:
+            report["vision_target"] = run.log.attrs["vision_target"]
+            report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
+            report["vision_seen_fraction"] = run.vision_seen_fraction
+        if accommodation is not None:
+            for key in ("peak_contact_force_n", "steady_contact_force_n", "contact_force_p10_n", "contact_force_p90_n",
+                        "contact_hold_s"):
+                report[key] = run.loop.diagnostics[key]
+            report["contact_loop_warning"] = warning
+        if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
+            report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
+            report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
+        if log_path:
+            run.write_log(log_path, lib.crane, report)
+        if plot_dir:
+            from motionlib.viz.run_plots import plot_run
 
-        report["plots"] = [str(p) for p in plot_run(plot_dir, run)]
+            report["plots"] = [str(p) for p in plot_run(plot_dir, run)]
+            step("figures written")
     if as_json:
         emit_json(report)
         return
@@ -168,7 +185,10 @@ def _print_report(s: dict[str, Any]) -> None:
         click.echo(f"  vision target     {', '.join(f'{v:.3f}' for v in s['vision_target'])} m, seen in "
                    f"{s['vision_seen_steps']} of {s['vision_steps']} steps ({100 * s['vision_seen_fraction']:.0f} %)")
     if "peak_contact_force_n" in s:
-        click.echo(f"  contact force     {s['peak_contact_force_n']:.0f} N at most (ground and obstacles)")
+        click.echo(f"  contact force     {s['steady_contact_force_n']:.0f} N steady over the longest hold "
+                   f"({s['contact_hold_s']:.2f} s; 10-90 %: {s['contact_force_p10_n']:.0f}-"
+                   f"{s['contact_force_p90_n']:.0f} N), {s['peak_contact_force_n']:.0f} N at most "
+                   "(ground and obstacles)")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")

@@ -26,8 +26,8 @@ def experiment() -> None:
               type=click.Path(file_okay=False), help="Output directory (tables, figures, report.md).")
 @click.option("--workers", type=click.IntRange(min=1), help="Worker processes [default: all cores].")
 @click.option("--library", "library_path", type=click.Path(dir_okay=False),
-              help="Log-loading motion library to use [default: build --spec into OUT, or reuse it there when up "
-                   "to date].")
+              help="Log-loading motion library to use [default: the --spec library beside the spec (the quick "
+                   "start's libraries/log-loading.h5) or in OUT when up to date, else built into OUT].")
 @click.option("--spec", "spec_path", type=click.Path(dir_okay=False),
               help="Library spec to build without --library [default: libraries/log-loading.yaml].")
 @click.option("--automation-ends", type=click.Choice(["fixed", "per-log"]), default="fixed", show_default=True,

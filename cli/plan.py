@@ -8,7 +8,7 @@ from motionlib.checks import parse_csv_floats
 from motionlib.library.spec import PLANNER_RANGES
 
 from .options import VECTOR_LIMIT, FiniteFloatRange, crane_option, json_option, scene_option
-from .output import emit_json
+from .output import emit_json, tty_progress
 
 
 @click.command()
@@ -68,7 +68,7 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
     n_start = 5 if crane.rotator is not None and start.count(",") == 4 else 4
     start_q = parse_csv_floats(start, n_start, "--start", VECTOR_LIMIT) if "," in start else start
     goal_p = parse_csv_floats(goal, 3, "--goal", VECTOR_LIMIT) if "," in goal else goal
-    result = plan_motion(crane, scene, start_q, goal_p, options).raise_for_status()
+    result = plan_motion(crane, scene, start_q, goal_p, options, tty_progress("planning", as_json)).raise_for_status()
     traj = result.trajectory
     assert traj is not None  # raise_for_status
     if output:

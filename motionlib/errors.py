@@ -68,3 +68,7 @@ class NoSelectionError(MotionlibError, LookupError):
 
 class ExecutionError(MotionlibError, RuntimeError):
     """A run of the shared-control loop did not end as asked (raised by ``RunResult.raise_for_status()``)."""
+
+
+class ContactLoopWarning(UserWarning):
+    """Force-accommodation gains that make the contact loop ring (:func:`motionlib.sim.execute.contact_loop_check`)."""

@@ -45,7 +45,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.interpolate import splev, splprep
@@ -61,6 +61,9 @@ from ..planning.spline import TipSpline
 from .recording import Recording
 from .segmentation import Segment, Segmentation, segment_recording
 from .signals import SPEED_TOLERANCE, joint_speed_ratio
+
+if TYPE_CHECKING:
+    from ..progress import Progress
 
 #: Spacing (m) at which the recorded tip polyline is resampled to measure deviations.
 _POLYLINE_STEP_M = 0.002
@@ -210,7 +213,8 @@ class ReplanReport:
 
 
 def replan_recording(
-    rec: Recording, segmentation: Segmentation | None = None, options: ReplanOptions | None = None
+    rec: Recording, segmentation: Segmentation | None = None, options: ReplanOptions | None = None,
+    progress: Progress | None = None,
 ) -> ReplanReport:
     """Replan every recorded move of ``rec`` along its path and freely (see the module docstring).
 
@@ -220,6 +224,8 @@ def replan_recording(
     segmentation : Segmentation, optional
         The recording's states (default: :func:`segment_recording` with default options).
     options : ReplanOptions, optional
+    progress : Progress, optional
+        Receives one item per move as it is replanned (``motionlib analyze --replan`` on a terminal).
 
     Returns
     -------
@@ -240,27 +246,35 @@ def replan_recording(
         notes.append("the recording has no scene: replanned along the recorded paths only, without obstacles")
     ratio = joint_speed_ratio(rec.crane, rec.t, rec.q)
     rows = []
-    for s in seg.moves:
-        peak = ratio[s.i0 : s.i1 + 1].max(axis=0)
-        j = int(np.argmax(peak))
-        if peak[j] > 1.0 + SPEED_TOLERANCE:
-            why = (f"the recording moves q{j + 1} at {peak[j]:.2f} times the crane file's speed limit (tolerance "
-                   f"{1.0 + SPEED_TOLERANCE:g}): faster than crane {rec.crane.name!r}; check the crane file and the "
-                   "recording's units")
-            skip = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, why)
-            rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, skip, skip, float(peak[j])))
-            continue
-        along = _along(rec, s, planners[s.state.loaded, True], o)
-        if not o.free:
-            free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "free replanning not asked for")
-        elif rec.scene is None:
-            free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "no scene")
-        else:
-            free = _from_result(planners[s.state.loaded, False].plan(rec.q[s.i0], rec.tip[s.i1]))
-            if free.status is ReplanStatus.OK and free.duration_s > s.duration_s:
-                free = replace(free, reason=f"slower than the recording's {s.duration_s:.3f} s: the planner's own "
-                               "path keeps the planner's clearances, the recorded one may not")
-        rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free, float(peak[j])))
+    if progress is not None:
+        progress.start(len(seg.moves))
+    try:
+        for s in seg.moves:
+            peak = ratio[s.i0 : s.i1 + 1].max(axis=0)
+            j = int(np.argmax(peak))
+            if peak[j] > 1.0 + SPEED_TOLERANCE:
+                why = (f"the recording moves q{j + 1} at {peak[j]:.2f} times the crane file's speed limit (tolerance "
+                       f"{1.0 + SPEED_TOLERANCE:g}): faster than crane {rec.crane.name!r}; check the crane file and "
+                       "the recording's units")
+                along = free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, why)
+            else:
+                along = _along(rec, s, planners[s.state.loaded, True], o)
+                if not o.free:
+                    free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "free replanning not asked for")
+                elif rec.scene is None:
+                    free = Replanning(ReplanStatus.NOT_POSSIBLE, math.nan, "no scene")
+                else:
+                    free = _from_result(planners[s.state.loaded, False].plan(rec.q[s.i0], rec.tip[s.i1]))
+                    if free.status is ReplanStatus.OK and free.duration_s > s.duration_s:
+                        free = replace(free, reason=f"slower than the recording's {s.duration_s:.3f} s: the planner's "
+                                       "own path keeps the planner's clearances, the recorded one may not")
+            rows.append(MotionReplan(s.state.value, s.t0, s.t1, s.duration_s, along, free, float(peak[j])))
+            if progress is not None:
+                progress.advance(along.status is ReplanStatus.OK, f"{s.state.value} at {s.t0:.1f} s: along "
+                                 f"{along.status.value}, free {free.status.value}")
+    finally:
+        if progress is not None:
+            progress.close()
     faster = sum(m.speed_ratio > 1.0 + SPEED_TOLERANCE for m in rows)
     if faster:
         notes.append(f"{faster} move(s) faster than the crane file's speed limits allow: not replanned")

@@ -66,6 +66,7 @@ from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import TipKinematics, Vec3, Vec4, tip_speed
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
+from .accommodation import AccommodationSource
 from .command import (
     COMMAND_STATE,
     EV_ABORT,
@@ -600,7 +601,12 @@ class SharedController:
         """The guarded operator velocity ``c_o p_o`` (3,) (m/s) and ``c_o`` (1 without a guard)."""
         if self.guard is None:
             return po, 1.0
-        gx, gy, gz = self.guard.apply(q, po)
+        approach = None
+        for src in self._operator_sources:  # a contact-seeking accommodation (mixer module docstring)
+            if src.enabled and isinstance(src, AccommodationSource):
+                approach = src.approach()
+                break
+        gx, gy, gz = self.guard.apply(q, po, approach)
         return (float(gx), float(gy), float(gz)), float(self.guard.c_o)
 
     def _ramp_to_zero(self) -> None:

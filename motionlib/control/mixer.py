@@ -39,6 +39,18 @@ velocity moves that link. fcl is called only when the operator moves and the cle
 could be below the margin: a cached distance is reused while
 ``clearance_cached - D(q_cached, q) >= margin``, ``D`` a bound on how far any point of the
 crane can have moved (lever arms times joint changes), which makes the cache exact.
+
+Contact-seeking accommodation (001 section 2.5): a force-accommodation source
+(:mod:`motionlib.control.accommodation`) is there to let the grapple push on a surface with a bounded
+force, which the guard alone would forbid (it stops the grapple ``c_o``-slowly just above it). With
+an :class:`Approach` the guard keeps, of the toward component, at least ``w v_a`` (``v_a`` the
+approach speed, ``w = |A n|^2`` the share of the direction ``n`` on the accommodated axes ``A``)::
+
+    p_o' = p_o - min((1 - c_o) t, max(0, t - w v_a)) n,   t = max(0, p_o . n)
+
+so the grapple reaches the surface along the accommodated axes at ``min(t, v_a)`` at most instead of
+stopping; once the sensed force pushes back from it (``-f_env . n`` above the contact threshold) the
+cut is scaled by ``1 - w``: the whole push passes and the accommodation bounds the force.
 """
 
 from __future__ import annotations
@@ -257,6 +269,28 @@ def guard_clear(cache, q) -> bool:
     return cache[_G_CLEARANCE] - bound >= cache[_G_MARGIN]
 
 
+@dataclass(frozen=True)
+class Approach:
+    """What the obstacle guard lets a contact-seeking accommodation do (module docstring).
+
+    Attributes
+    ----------
+    axes : tuple of 3 float
+        1.0 on the base axes the accommodation acts on, else 0.0.
+    speed_m_s : float
+        Approach speed ``v_a`` (m/s) the guard keeps toward an obstacle along those axes.
+    contact_force_n : float
+        Sensed force (N) pushing back from the obstacle above which the grapple counts as in contact.
+    f_env : tuple of 3 float
+        The sensed force of the environment on the grapple (N, base frame).
+    """
+
+    axes: Vec3
+    speed_m_s: float
+    contact_force_n: float
+    f_env: Vec3
+
+
 class ObstacleGuard:
     """``c_o``: scales the operator's velocity toward the nearest known obstacle (see the module docstring).
 
@@ -303,8 +337,12 @@ class ObstacleGuard:
         self.cache[_G_VALID] = 0.0
         self.cache[_G_C_O] = 1.0
 
-    def apply(self, q: tuple[float, ...], pd_o: Vec3) -> Vec3:
-        """The guarded operator velocity ``p_o'`` (3,) (m/s) at configuration ``q`` (4,); sets :attr:`c_o`."""
+    def apply(self, q: tuple[float, ...], pd_o: Vec3, approach: Approach | None = None) -> Vec3:
+        """The guarded operator velocity ``p_o'`` (3,) (m/s) at configuration ``q`` (4,); sets :attr:`c_o`.
+
+        ``approach``: a contact-seeking accommodation's axes, approach speed and sensed force (module
+        docstring); None: the plain guard.
+        """
         vx, vy, vz = pd_o
         if (vx == 0.0 and vy == 0.0 and vz == 0.0) or guard_clear(self.cache, q):
             self.cache[_G_C_O] = 1.0
@@ -328,4 +366,12 @@ class ObstacleGuard:
         if toward <= 0.0:
             return pd_o
         cut = (1.0 - c_o) * toward
+        if approach is not None:
+            ax = approach.axes
+            w = ax[0] * nx * nx + ax[1] * ny * ny + ax[2] * nz * nz
+            f = approach.f_env
+            if -(f[0] * nx + f[1] * ny + f[2] * nz) > approach.contact_force_n:  # pushed back: in contact
+                cut *= 1.0 - w
+            else:
+                cut = min(cut, max(0.0, toward - w * approach.speed_m_s))
         return (vx - cut * nx, vy - cut * ny, vz - cut * nz)

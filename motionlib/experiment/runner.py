@@ -205,15 +205,19 @@ class LibraryStatus:
 def ensure_library(
     spec_path: str | Path, out_dir: str | Path, workers: int | None = None, progress: Progress | None = None
 ) -> LibraryStatus:
-    """The library of ``spec_path`` in ``out_dir`` (``<spec name>.h5``): reused when up to date, else built.
+    """The library of ``spec_path``: reused when up to date, else built in ``out_dir`` (``<spec name>.h5``).
 
-    An interrupted build of the same spec is resumed from its checkpoints.
+    Reused from beside the spec first (``libraries/log-loading.h5`` for ``libraries/log-loading.yaml``,
+    where the README's quick start builds it), then from ``out_dir``. An interrupted build of the
+    same spec is resumed from its checkpoints.
     """
     spec = LibrarySpec.load(spec_path)
     out = Path(out_dir) / f"{spec.name}.h5"
-    current, why = library_is_current(spec, out)
-    if current:
-        return LibraryStatus(out, False, 0.0, f"reused {out.name} (up to date with {Path(spec_path).name})")
+    why = ""
+    for candidate in (Path(spec_path).with_suffix(".h5"), out):  # the last one's reason is the one to report
+        current, why = library_is_current(spec, candidate)
+        if current:
+            return LibraryStatus(candidate, False, 0.0, f"reused {candidate} (up to date with {Path(spec_path).name})")
     resume = parts_dir_for(out).exists()
     summary = build_library(spec, out, workers=workers, resume=resume, progress=progress)
     note = (

@@ -59,7 +59,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -92,6 +92,9 @@ from .timing import TimingResult, TimingStatus, time_scale
 from .trajectory import StageReport, Trajectory, TrajectoryInfo
 from .trajopt import fastest_valid_trajectory
 from .verification import LIMIT_TOLERANCE, Verifier, time_and_verify
+
+if TYPE_CHECKING:
+    from ..progress import Progress
 
 
 class PlanStatus(Enum):
@@ -241,6 +244,24 @@ class _Candidate:
     rotators: dict[str, TelescopeProfile] = field(default_factory=dict)  # rotator profile per usable profile
 
 
+PLAN_STAGES: tuple[str, ...] = ("path", "jointspace", "trajopt", "redundancy", "timing", "verification",
+                                 "candidates", "swing")
+"""The stages of :meth:`Planner.plan`, in the order they finish (:attr:`PlanResult.stages`)."""
+
+
+class _Stages(dict):
+    """The stage reports of a plan; each one stored advances ``progress`` (its stage finished)."""
+
+    def __init__(self, progress: Progress | None):
+        super().__init__()
+        self.progress = progress
+
+    def __setitem__(self, name: str, report: StageReport) -> None:
+        super().__setitem__(name, report)
+        if self.progress is not None:
+            self.progress.advance(report.status != "failed", f"{name}: {report.status}, {report.time_s:.1f} s")
+
+
 @dataclass
 class PlanResult:
     """Result of :func:`plan`.
@@ -378,7 +399,7 @@ class Planner:
         return "no telescope extension reaches the goal within the joint limits"
 
     # -------------------------------------------------------------------- plan
-    def plan(self, start_q: Any, goal_p: Any) -> PlanResult:
+    def plan(self, start_q: Any, goal_p: Any, progress: Progress | None = None) -> PlanResult:
         """Plan from a start configuration to a goal tip point (base frame).
 
         Parameters
@@ -388,24 +409,33 @@ class Planner:
             with a rotator takes q5 (rad) as a fifth value (default 0).
         goal_p : array_like, shape (3,)
             Goal tip position (m).
+        progress : Progress, optional
+            Receives one item per stage of :data:`PLAN_STAGES` as it finishes (``motionlib plan`` on a terminal).
 
         Returns
         -------
         PlanResult
             ``PlanStatus.TIMEOUT`` when a search ran into its wall-clock cap.
         """
+        if progress is not None:
+            progress.start(len(PLAN_STAGES))
         try:
-            return self._plan(start_q, goal_p)
+            result = self._plan(start_q, goal_p, progress)
         except PlanningTimeout as exc:
             return PlanResult(PlanStatus.TIMEOUT, exc.reason, None, {}, {})
+        finally:
+            if progress is not None:
+                progress.close()
+        result.stages = dict(result.stages)  # a plain dict, without the progress
+        return result
 
-    def _plan(self, start_q: Any, goal_p: Any) -> PlanResult:
+    def _plan(self, start_q: Any, goal_p: Any, progress: Progress | None = None) -> PlanResult:
         """:meth:`plan` without the wall-clock cap's translation into a result."""
         crane, o = self.crane, self.options
         start_full = self._full_start(start_q)
         start_q = start_full[:4]
         goal_p = check_vector(goal_p, 3, "goal")
-        stages: dict[str, StageReport] = {}
+        stages: dict[str, StageReport] = _Stages(progress)
 
         def fail(status: PlanStatus, reason: str, baselines: dict[str, float | None] | None = None) -> PlanResult:
             return PlanResult(status, reason, None, stages, baselines or {})
@@ -1024,6 +1054,7 @@ def plan(
     start: str | Any,
     goal: str | Any,
     options: PlanOptions | None = None,
+    progress: Progress | None = None,
 ) -> PlanResult:
     """Plan one motion (see the module docstring for the stages).
 
@@ -1037,6 +1068,8 @@ def plan(
     goal : str or array_like, shape (3,)
         A named point of the scene, or a tip position (base frame, m).
     options : PlanOptions, optional
+    progress : Progress, optional
+        Receives the stages as they finish (:meth:`Planner.plan`).
 
     Returns
     -------
@@ -1044,4 +1077,4 @@ def plan(
     """
     start_q = scene.start(start) if isinstance(start, str) else start
     goal_p = scene.point(goal) if isinstance(goal, str) else goal
-    return Planner(crane, scene, options).plan(start_q, goal_p)
+    return Planner(crane, scene, options).plan(start_q, goal_p, progress)

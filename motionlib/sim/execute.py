@@ -13,6 +13,7 @@ the run (:func:`~motionlib.control.metrics.run_summary`).
 from __future__ import annotations
 
 import enum
+import warnings
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_scalar, check_vector
-from ..control.accommodation import AccommodationOptions, accommodation_source
+from ..control.accommodation import AccommodationOptions, accommodation_source, contact_loop_warning
 from ..control.control_types import ControllerParams, Mode
 from ..control.controller import SharedController
 from ..control.frames_source import stick_in_frames
@@ -30,7 +31,7 @@ from ..control.mixer import MixerParams, ObstacleGuard
 from ..control.runlog import RunLog, write_runlog
 from ..control.tracker import TrackerParams
 from ..control.vision import VisionSource
-from ..errors import ExecutionError, InputError
+from ..errors import ContactLoopWarning, ExecutionError, InputError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.scene import Scene
@@ -223,6 +224,20 @@ def prepare_run(
     return controller, sim
 
 
+def contact_loop_check(options: ExecuteOptions) -> str:
+    """A one-line warning when the accommodation of ``options`` makes the contact loop ring, else ``""``.
+
+    :func:`~motionlib.control.accommodation.contact_loop_warning` with the stick's full-deflection
+    speed, the control period and the stiffness of the plant's contact (``sim.contact``, or the
+    default :class:`~motionlib.sim.contact.ContactParams` that :func:`execute` turns on).
+    """
+    if options.accommodation is None:
+        return ""
+    contact = options.sim.contact or ContactParams()
+    return contact_loop_warning(options.accommodation, options.mixer.v_operator_max_m_s, contact.stiffness_n_m,
+                                options.controller.dt_s)
+
+
 def execute(
     trajectory: Trajectory | None,
     crane: Crane,
@@ -272,6 +287,11 @@ def execute(
     ------
     InputError
         Bad mode, operator, target, start configuration, vision target or sensor.
+
+    Warns
+    -----
+    ContactLoopWarning
+        The accommodation's gain makes the contact loop ring (:func:`contact_loop_check`).
     """
     opts = options or ExecuteOptions()
     mode = Mode.parse(mode)
@@ -326,11 +346,19 @@ def execute(
         }
     )
     own: list[Sensor] = [camera] if camera is not None else []
+    force_sensor: ForceSensor | None = None
     if opts.accommodation is not None:
+        if message := contact_loop_check(opts):
+            warnings.warn(message, ContactLoopWarning, stacklevel=2)
         accommodation = accommodation_source(opts.accommodation, opts.mixer.v_operator_max_m_s)
         controller.add_source(accommodation)
-        own.append(ForceSensor(accommodation))
+        force_sensor = ForceSensor(accommodation)
+        own.append(force_sensor)
     loop = run_closed_loop(controller, sim, op, opts.loop_options(), log, sensors=own + extra_sensors)
+    if force_sensor is not None:  # the force the push settled at, besides the landing's peak
+        steady = force_sensor.steady()
+        loop.diagnostics.update(zip(("steady_contact_force_n", "contact_force_p10_n", "contact_force_p90_n",
+                                     "contact_hold_s"), steady, strict=True))
     arrays = log.arrays(crane)
     summary = run_summary(arrays, log.events, target_p, loop.cycle_time_s, trajectory, settled=loop.settled)
     status = RunStatus.SETTLED if loop.settled else RunStatus.TIME_LIMIT

@@ -87,7 +87,9 @@ class LoopResult:
     diagnostics : dict
         ``hard_stop_hits`` (int), ``fcl_calls`` (int, obstacle guard), ``events`` (list);
         ``rotator_rad`` (the rotator's final angle, cranes with one) and ``peak_contact_force_n``
-        (N, with the plant's ground contact).
+        (N, with the plant's ground contact); :func:`~motionlib.sim.execute.execute` with an
+        accommodation adds ``steady_contact_force_n``, ``contact_force_p10_n``, ``contact_force_p90_n`` and
+        ``contact_hold_s`` (:meth:`~motionlib.sim.sensors.ForceSensor.steady`).
     """
 
     log: RunLog

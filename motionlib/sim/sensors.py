@@ -22,8 +22,11 @@ Sensors: :class:`~motionlib.sim.camera.SimulatedCamera` (the vision source's cam
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import numpy as np
 
 from ..control.accommodation import AccommodationSource
 from ..errors import InputError
@@ -64,11 +67,37 @@ def sense_calls(sensors: Iterable[Sensor] | None) -> tuple[Callable[[SimulatedCr
 class ForceSensor:
     """The force sensor above the grapple: each step, the plant's contact force goes to ``source``.
 
-    A sensor of the loop's hook (this module).
+    A sensor of the loop's hook (this module). It keeps the force's magnitude (N) of every step
+    (:attr:`forces`) for the run's steady contact force (:meth:`steady`).
     """
 
     def __init__(self, source: AccommodationSource):
         self.source = source
+        self.forces: list[float] = []
+        self.t: list[float] = []
 
     def sense(self, sim: SimulatedCrane) -> None:
-        self.source.sense(sim.contact_force)
+        f = sim.contact_force
+        self.source.sense(f)
+        self.forces.append(math.sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]))
+        self.t.append(sim.t)
+
+    def steady(self) -> tuple[float, float, float, float]:
+        """The longest hold: median, 10th and 90th percentile of its force (N) in its second half, and its length (s).
+
+        A hold is a stretch of steps in contact, a force above the source's ``contact_force_n`` (the
+        guard's definition of contact). The median of its second half is the force the push settled
+        at (the landing lies in the first half); a contact that bounces holds only briefly. Zeros
+        without contact.
+        """
+        touching = np.concatenate(([False], np.asarray(self.forces) > self.source.contact_force_n, [False]))
+        edges = np.flatnonzero(np.diff(touching.astype(np.int8)))  # starts and ends (exclusive) of the holds
+        if edges.size == 0:
+            return 0.0, 0.0, 0.0, 0.0
+        starts, ends = edges[0::2], edges[1::2]
+        k = int(np.argmax(ends - starts))
+        first, end = int(starts[k]), int(ends[k])
+        half = (first + end) // 2
+        f = np.asarray(self.forces[half:end])
+        median, p10, p90 = np.percentile(f, [50.0, 10.0, 90.0])
+        return float(median), float(p10), float(p90), self.t[end - 1] - self.t[first]

@@ -49,18 +49,24 @@ def phase_plane_figure(crane: Crane, traj: Trajectory) -> Figure:
     s_of_t = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(tips, axis=0), axis=1))])
     sd_of_t = np.linalg.norm(np.einsum("nij,nj->ni", _jacobians(crane, traj.q), traj.qd), axis=1)
 
-    fig, ax = new_figure(figsize=(8, 4.5))
+    fig, ax = new_figure(figsize=(10, 4.5))
+    top = np.nanmax(np.where(np.isfinite(pp.composite), pp.composite, np.nan))
     for j, label in enumerate(pp.labels):
         bound = np.where(np.isfinite(pp.bounds[:, j]), pp.bounds[:, j], np.nan)
-        ax.plot(s, bound, "--", lw=1, label=label.split(":")[-1] + " bound")
+        if label.endswith("pump"):  # a broad band: visible where it is the composite bound too, and wholly in view
+            ax.plot(s, bound, "-", color="tab:purple", lw=4, alpha=0.5, label="pump-flow bound")
+            if np.isfinite(bound).any():  # in view, at least where it comes within 3x the composite bound
+                lo, hi = float(np.nanmin(bound)), float(np.nanmax(bound))
+                top = max(top, min(hi, max(3.0 * top, 1.2 * lo)))
+        else:
+            ax.plot(s, bound, "--", lw=1, label=label.split(":")[-1] + " bound")
     ax.plot(s, pp.composite, "k-", lw=1.5, label="composite bound (003 eq. 4.10)")
     ax.plot(s_of_t, sd_of_t, "r-", lw=2, label="trajectory (with acceleration limits)")
-    top = np.nanmax(np.where(np.isfinite(pp.composite), pp.composite, np.nan))
-    ax.set_ylim(0, 1.6 * top)
+    ax.set_ylim(0, 1.15 * top)
     ax.set_xlabel("arc length s (m)")
     ax.set_ylabel("path speed ds/dt (m/s)")
     ax.set_title(f"Phase plane: velocity-limited time {pp.time_s:.2f} s, trajectory {traj.duration_s:.2f} s")
-    ax.legend(fontsize=8, loc="upper right")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside the axes: it hides no curve
     ax.grid(alpha=0.3)
     return fig
 

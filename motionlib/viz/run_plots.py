@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from ..control.metrics import filtered_derivatives
+from ..model.crane_model import JOINT_NAMES
 from ..planning.spline import TipSpline
 from ..sim.execute import RunResult
 from .figures import new_figure, save_figure
@@ -70,8 +71,10 @@ def timeseries_figure(run: RunResult) -> Figure:
     axes[1].legend(fontsize=8)
     axes[2].plot(t, np.degrees(a["swing_rad"]))
     axes[2].set_ylabel("swing (deg)")
-    axes[3].plot(t, a["qd_cmd"], lw=1)
+    for j, name in enumerate(JOINT_NAMES):
+        axes[3].plot(t, a["qd_cmd"][:, j], lw=1, label=f"{name} ({'m/s' if name == 'telescope' else 'rad/s'})")
     axes[3].set_ylabel("qd command")
+    axes[3].legend(fontsize=8, ncols=4)
     axes[3].set_xlabel("t (s)")
     for ax in axes:
         ax.grid(alpha=0.3)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -311,6 +312,21 @@ def tiny(tmp_path_factory) -> tuple[Path, Path]:
     status = ensure_library(spec, root / "out", workers=1)
     assert status.built and status.path.is_file()
     return spec, status.path
+
+
+def test_the_library_beside_the_spec_is_reused(tiny, tmp_path: Path):
+    """Issue 24 item 16: the quick start builds ``libraries/log-loading.h5`` beside its spec; the experiment reuses it.
+
+    Reference: the file itself (no build: nothing written into the new OUT).
+    """
+    spec, lib = tiny
+    beside = tmp_path / "tiny.h5"
+    spec_copy = tmp_path / "tiny.yaml"
+    spec_copy.write_text(spec.read_text())
+    shutil.copyfile(lib, beside)
+    status = ensure_library(spec_copy, tmp_path / "out", workers=1)
+    assert not status.built and status.path == beside and f"reused {beside}" in status.note
+    assert not (tmp_path / "out").exists()
 
 
 class _KeptRunLog(RunLog):

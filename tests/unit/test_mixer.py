@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from motionlib.control.mixer import Mixer, MixerParams, ObstacleGuard
+from motionlib.control.accommodation import AccommodationOptions, contact_loop_warning
+from motionlib.control.mixer import Approach, Mixer, MixerParams, ObstacleGuard
 from motionlib.errors import InputError
 from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
@@ -135,6 +136,33 @@ def test_guard_scales_only_the_component_toward_the_obstacle(lab_scene):
     assert guard.apply(tuple(q.tolist()), (0.0, 0.0, 0.0)) == (0.0, 0.0, 0.0)
 
 
+def test_guard_lets_a_contact_seeking_accommodation_approach_and_push(lab_scene):
+    """With an :class:`Approach`: at least ``w v_a`` of the approach is kept, all of it once pushed back.
+
+    Reference: the guard's formula written out with the fcl nearest points (``w = |A n|^2``).
+    """
+    crane, _, checker = lab_scene
+    q = _over_the_wall(crane, 0.95 + crane.model.grapple_length + 0.02)  # 2 cm over the wall's top
+    ref = checker.distance(q)
+    n = (ref.points[1] - ref.points[0]) / np.linalg.norm(ref.points[1] - ref.points[0])
+    c_o = _s(ref.distance / 0.25)
+    v = np.array([0.1, -0.2, -0.8])
+    toward = v @ n
+    assert toward > 0.1 and c_o < 0.1
+    for axes in ((0.0, 0.0, 1.0), (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)):
+        w = float(np.sum(np.array(axes) * n**2))
+        for f_env, contact in (((0.0, 0.0, 0.0), False), (tuple((-100.0 * n).tolist()), True)):
+            guard = ObstacleGuard(checker, 0.25)
+            out = np.array(guard.apply(tuple(q.tolist()), tuple(v.tolist()), Approach(axes, 0.1, 50.0, f_env)))
+            cut = (1.0 - c_o) * toward
+            cut = (1.0 - w) * cut if contact else min(cut, max(0.0, toward - w * 0.1))
+            np.testing.assert_allclose(out, v - cut * n, atol=1e-12)
+            if contact:
+                assert out @ n == pytest.approx(toward * (c_o + (1 - c_o) * w), abs=1e-12)
+            else:
+                assert out @ n == pytest.approx(max(c_o * toward, min(toward, w * 0.1)), abs=1e-12)
+
+
 def test_guard_cache_is_exact(lab_scene):
     """A random walk toward and away from the wall: the cached guard equals one that asks fcl every time."""
     crane, _, checker = lab_scene
@@ -167,3 +195,17 @@ def test_guard_does_not_call_fcl_far_from_obstacles(lab_scene):
         qk = q + np.array([0.0005, 0.0001, -0.0001, 0.0]) * k  # 0.1 rad/s slew
         assert guard.apply(tuple(qk.tolist()), (0.3, 0.0, -0.2)) == (0.3, 0.0, -0.2)
     assert guard.fcl_calls == 1
+
+
+def test_contact_loop_warning_against_the_closed_form():
+    """The warning fires exactly where the sampled contact loop's poles turn complex.
+
+    Reference: the roots of ``z^2 - z + a`` (numpy), complex iff ``a > 1/4`` (motionlib.control.accommodation),
+    with ``a = K_F k dt`` and ``K_F = v / (margin x bound)``.
+    """
+    for bound in (300.0, 999.0, 1000.0, 1001.0, 4000.0):
+        for stiffness in (2e4, 5e4, 2e5):
+            options = AccommodationOptions(bound, margin=0.8, axes="z")
+            a = 0.8 / (0.8 * bound) * stiffness * 0.005
+            rings = bool(np.abs(np.roots([1.0, -1.0, a]).imag).max() > 1e-6)
+            assert bool(contact_loop_warning(options, 0.8, stiffness, 0.005)) == rings, (bound, stiffness)
