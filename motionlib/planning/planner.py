@@ -32,7 +32,8 @@ result with a status):
 4. ``verification``: fastest first, until none left could beat the best verified: the 200 Hz
    samples are re-checked for every limit (1 % tolerance) and for collisions at <= 1 cm tip
    spacing; when samples between TOPPRA's grid points overshoot a limit, that path is re-timed
-   under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
+   under a safety factor on a denser grid (TIMING_ATTEMPTS); the first sample must be the start
+   configuration and the last sample's tip the goal. The stage ``candidates`` records
    which source won (also ``TrajectoryInfo.path_source``).
 5. ``swing`` (:mod:`motionlib.planning.shaping`, ``PlanOptions.swing_shaping``): the winner's time law is
    shaped so that the grapple's predicted residual swing (:mod:`motionlib.planning.swing`) is within
@@ -47,6 +48,11 @@ arm screen, TOPPRA (the rotator's velocity, acceleration and pump share) and the
 use it, the collision checks with the log's actual yaw ``q1 + q5``. The path stage (OMPL tip states)
 and the joint-space paths still hold a carried log along the tip's heading, as for a crane without
 a rotator: a proxy; the verified trajectory is checked with the actual yaw.
+
+A start with the jib past straight (the forwarder's jib reaches 0.15 rad) is not on the closed-form IK's
+branch (003 eq. 4.15, the jib folded down), which gives the other configuration of the same tip: from such
+a start no tip-space path is searched and the joint candidates keep their own configurations (profile
+``joint``, :func:`~motionlib.planning.joint_to_tip.configurations_along`).
 
 Every plan reports the pump-aware lower bound and the joint-space baseline beside the
 telescope baselines. :func:`plan` never raises for a planning failure: it returns a
@@ -69,7 +75,7 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import Limit, limits_for
 from ..model.scene import Scene
-from .joint_to_tip import tip_path_from_joint_path
+from .joint_to_tip import configurations_along, tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
 from .lower_bound import best_goal_telescope, lower_bound_s
 from .path import DEFAULT_PATH_CHECKS, PathOptions, PathStatus, plan_tip_path, spline_check_grid
@@ -88,7 +94,7 @@ from .spline import TipSpline
 from .swing import predict_swing
 from .time_law import TimeLaw
 from .timing import TimingResult, TimingStatus, time_scale
-from .trajectory import StageReport, Trajectory, TrajectoryInfo
+from .trajectory import START_Q_TOL, StageReport, Trajectory, TrajectoryInfo
 from .trajopt import fastest_valid_trajectory
 from .verification import LIMIT_TOLERANCE, Verifier, time_and_verify
 
@@ -111,12 +117,18 @@ class PlanStatus(Enum):
 #: 1: tip-space path only; 2: path candidates from the tip space and the joint space, fastest verified wins;
 #: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
-#: (:mod:`motionlib.planning.shaping`), jerk-limited.
-PLANNER_VERSION = 5
+#: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: a start with the jib past straight is planned along the
+#: joint candidates' own configurations (before: from the IK's other configuration of its tip).
+PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
 GIVEN_SOURCE = "given"  # the path of Planner.plan_along
+#: Profile name of a joint path's own configurations (a start off the closed-form IK's branch).
+JOINT_PROFILE = "joint"
+#: Why the closed-form IK's joint paths are not used from a start with the jib past straight.
+OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the start configuration back (its jib is "
+                     "past straight): only joint paths start there")
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
@@ -435,20 +447,25 @@ class Planner:
         candidates: dict[str, _Candidate] = {}
         rejected_sources: dict[str, str] = {}
 
-        # 1a. Tip-space path (today's source, kept so the result is never slower than it).
-        path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s, seed=o.seed,
-                                bounds=self._bounds())
-        t0 = time.perf_counter()
-        path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
-        stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+        # 1a. Tip-space path (today's source, kept so the result is never slower than it). Its joint path
+        #     comes from the closed-form IK, which cannot start at a start with the jib past straight.
+        on_branch = self._ik_gives_back(start_q)
         t_redundancy = 0.0
         red_details: dict[str, Any] = {}
-        if path.status is PathStatus.OK and path.spline is not None:
+        if on_branch:
+            path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s,
+                                    seed=o.seed, bounds=self._bounds())
             t0 = time.perf_counter()
-            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
-            t_redundancy += time.perf_counter() - t0
+            path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
+            stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+            if path.status is PathStatus.OK and path.spline is not None:
+                t0 = time.perf_counter()
+                candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
+                t_redundancy += time.perf_counter() - t0
+            else:
+                rejected_sources[TIP_SOURCE] = path.reason
         else:
-            rejected_sources[TIP_SOURCE] = path.reason
+            rejected_sources[TIP_SOURCE] = OFF_BRANCH_REASON
 
         # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
         #     candidates in the product's shape (tip spline of their forward kinematics).
@@ -489,7 +506,7 @@ class Planner:
                 sources[name] = joint_paths[name]
         for name, q_wp in sources.items():
             try:
-                spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
+                spline, initial, q_sub = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
             except InputError as exc:
                 rejected_sources[name] = str(exc)
                 continue
@@ -497,7 +514,8 @@ class Planner:
             if not all(self._grapple_valid(p) for p in spline(s_chk)):
                 rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
                 continue
-            candidates[name], red_details[name] = self._candidate(spline, start_full, initial)
+            candidates[name], red_details[name] = self._candidate(spline, start_full, initial,
+                                                                  None if on_branch else q_sub)
         t_redundancy += time.perf_counter() - t0 - t_trajopt
         stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
@@ -598,9 +616,8 @@ class Planner:
                 break
             cand = usable[key[0]]
             t1 = time.perf_counter()
-            timing, report, attempt = time_and_verify(
-                cand.s_grid, cand.q_paths[key[1]], self.full_attempts, self.full_verifier, o.dt_s, first=timed[key]
-            )
+            timing, report, attempt = time_and_verify(cand.s_grid, cand.q_paths[key[1]], self.full_attempts,
+                                                      self.full_verifier, o.dt_s, timed[key], start_q, goal_p)
             t_verify += time.perf_counter() - t1
             ok = bool(timing.ok and report is not None and report.ok)
             label = f"{key[0]}/{key[1]}"
@@ -633,7 +650,7 @@ class Planner:
         )
 
         t0 = time.perf_counter()
-        samples, law, shaper, swing_details = self._shape(timing)
+        samples, law, shaper, swing_details = self._shape(timing, start_q, goal_p)
         stages["swing"] = StageReport(swing_details.get("status", "ok") if samples is not None else "failed",
                                       time.perf_counter() - t0, swing_details)
         if samples is None or law is None:
@@ -690,13 +707,14 @@ class Planner:
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
 
     def _shape(
-        self, timing: TimingResult
+        self, timing: TimingResult, start_q: np.ndarray, goal_p: np.ndarray
     ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, TimeLaw | None, str, dict[str, Any]]:
         """Stage 5: swing shaping of the verified time-optimal timing (:mod:`motionlib.planning.shaping`).
 
         The candidates come shortest first; the first whose predicted residual swing is within
         ``swing_tolerance_rad`` and whose samples pass the dense verification (limits, pump,
-        collisions and the residual swing again) is kept. A shaped motion that fails is rejected
+        collisions, the start and goal (``start_q`` (4,) or (5,), ``goal_p`` (3,)) and the residual swing
+        again) is kept. A shaped motion that fails is rejected
         (its problem recorded) and never returned. When no candidate's swing is within the tolerance,
         the one with the least swing that verifies (limits, pump, collisions) is kept: the stage's
         status is then ``above_tolerance`` and the plan reports its residual swing and time to settled
@@ -738,12 +756,12 @@ class Planner:
             if candidate.swing.residual_rad > tol:
                 above.append(candidate)
                 continue
-            motion = self._verified_shaping(law, candidate, tol, rejected)
+            motion = self._verified_shaping(law, candidate, tol, rejected, start_q, goal_p)
             if motion is not None:
                 return self._shaped(motion, timing, details, rejected, "ok")
         # none meets the tolerance: the least swing that verifies, reported as it is
         for candidate in sorted(above, key=lambda m: (m.swing.residual_rad, m.duration_s)):
-            motion = self._verified_shaping(law, candidate, None, rejected)
+            motion = self._verified_shaping(law, candidate, None, rejected, start_q, goal_p)
             if motion is not None:
                 details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least that verifies, "
                                      f"{motion.swing.residual_rad:.3f} rad, is kept")
@@ -752,18 +770,18 @@ class Planner:
         return None, None, "", details
 
     def _verified_shaping(self, law: TimeLaw, motion: ShapedMotion, tolerance: float | None,
-                          rejected: dict[str, str]) -> ShapedMotion | None:
+                          rejected: dict[str, str], start_q: np.ndarray, goal_p: np.ndarray) -> ShapedMotion | None:
         """``motion`` if it passes the dense verification (with the swing check for a ``tolerance``), or its
         re-shaping with the base law stretched by the worst limit ratio (at most ``SHAPING_RESTRETCHES``
         times, for ratios up to ``MAX_RESTRETCH``; the shaped speeds mix the path's joint ratios); None when
         it fails (problems in ``rejected``)."""
         o = self.options
         for _ in range(SHAPING_RESTRETCHES + 1):
-            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, swing_tolerance_rad=tolerance)
+            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, tolerance, start_q, goal_p)
             if report.ok:
                 return motion
             rejected[_shaper_label(motion)] = report.problems[0]
-            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
+            if report.problems != report.limits or report.limit_ratio > MAX_RESTRETCH:  # only limits are re-shaped
                 return None
             motion = restretched(law, motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
                                  self.pendulum, o.swing_tolerance_rad, o.dt_s)
@@ -780,6 +798,12 @@ class Planner:
         details.update(status=status, shaper=name, added_s=motion.duration_s - timing.duration_s,
                        residual_rad=motion.swing.residual_rad, peak_rad=motion.swing.peak_rad, rejected=rejected)
         return (motion.t, motion.q, motion.qd, motion.qdd), motion.law, name, details
+
+    def _ik_gives_back(self, q: np.ndarray) -> bool:
+        """Whether the closed-form IK (003 eq. 4.15, the jib folded down) with ``q``'s telescope gives ``q`` (4,)
+        back from its tip: False for a jib past straight (the other branch: the same tip, another boom and jib)."""
+        q_ik, ok = self.crane.ik_batch(self.crane.fk(q)[None, :], q[3:4], q1_ref=float(q[0]))
+        return bool(ok[0]) and bool(np.allclose(q_ik[0], q, rtol=0.0, atol=START_Q_TOL))
 
     def _config_valid(self, q: np.ndarray) -> bool:
         """Joint-space validity under the tip planner's rules: within the joint limits, the arm keeps
@@ -838,7 +862,8 @@ class Planner:
         return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
 
     def _candidate(
-        self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None
+        self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None,
+        joint_q: np.ndarray | None = None,
     ) -> tuple[_Candidate, dict[str, Any]]:
         """Telescope profiles on one tip path, screened (see :meth:`_screen`).
 
@@ -846,15 +871,25 @@ class Planner:
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
         profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
-        is kept under ``optimised``). ``start_full`` (4,) or (5,) with the rotator.
+        is kept under ``optimised``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
+        (m, 4), the joint polyline whose tips are the spline's waypoints (a start off the closed-form
+        IK's branch), its own configurations are the only joint path (profile ``joint``, recorded with
+        the fitted telescope profile ``initial``).
         """
         crane, o = self.crane, self.options
         start_q = start_full[:4]
         q5_start = float(start_full[4]) if start_full.shape[0] == 5 else None
         degree = o.redundancy.degree
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
+        p_grid = spline(s_grid)
+        rotators: dict[str, TelescopeProfile] = {}
+        if joint_q is not None and initial is not None:
+            profiles = {JOINT_PROFILE: initial}
+            q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators, joint_q)
+            details = {"status": "skipped", "reason": OFF_BRANCH_REASON, "rejected": rejected}
+            return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), details
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
         details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
         if red.status is not RedundancyStatus.OK or red.profile is None:  # the candidate fails with its NLP
             return _Candidate(spline, s_grid, {}, {}, {"optimised": red.reason}), details
         profiles = {"optimised": red.profile}
@@ -864,15 +899,13 @@ class Planner:
             profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
         else:
             profiles["fitted"] = initial
-        p_grid = spline(s_grid)
-        rotators: dict[str, TelescopeProfile] = {}
-        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
+        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators)
         if not q_paths:
             fallbacks = {
                 f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
                 for end in np.linspace(*telescope_bounds(crane, o.redundancy.telescope_margin_m), 5)
             }
-            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q, q5_start, rotators)
             rejected.update(more)
             profiles.update(fallbacks)
         if rotators:
@@ -885,13 +918,17 @@ class Planner:
         spline: Any,
         s_grid: np.ndarray,
         p_grid: np.ndarray,
-        q1: float,
+        start_q: np.ndarray,
         q5_start: float | None = None,
         rotators: dict[str, TelescopeProfile] | None = None,
+        joint_q: np.ndarray | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
-        """Joint paths (on ``s_grid``) of the profiles that keep the joints within limits and the arm clear.
+        """Joint paths (on ``s_grid``) of the profiles that start at ``start_q`` (4,) and keep the joints within
+        limits and the arm clear.
 
-        The arm is checked with the arm-clearance margin at tip steps of that
+        The joint paths come from the closed-form IK with each profile, or with ``joint_q`` (m, 4) from that
+        joint polyline (:func:`~motionlib.planning.joint_to_tip.configurations_along`). The arm is checked
+        with the arm-clearance margin at tip steps of that
         margin; the chosen trajectory is verified exactly later. With the rotator (``q5_start``
         given) each usable path gets its rotator profile (the first of
         :data:`~motionlib.planning.rotator.ROTATOR_SHAPES` whose log keeps the clearance), stored
@@ -910,10 +947,16 @@ class Planner:
         usable: dict[str, np.ndarray] = {}
         rejected: dict[str, str] = {}
         for name, profile in profiles.items():
-            q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, q1)
-            q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, q1)
+            if joint_q is None:
+                q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, float(start_q[0]))
+                q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, float(start_q[0]))
+            else:
+                q_grid, q_chk = (configurations_along(self.crane, spline, joint_q, s) for s in (s_grid, s_check))
+                ok, ok_chk = self.crane.within_limits(q_grid), self.crane.within_limits(q_chk)
             if not (ok.all() and ok_chk.all()):
                 rejected[name] = "leaves the joint limits or the reachable set"
+            elif not np.allclose(q_grid[0], start_q, rtol=0.0, atol=START_Q_TOL):
+                rejected[name] = OFF_BRANCH_REASON
             elif q5_start is not None and rotators is not None:
                 self._screen_rotator(name, q_grid, q_chk, spline.length, s_grid, s_check, q5_start, usable, rejected,
                                      rotators)

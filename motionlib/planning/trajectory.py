@@ -296,6 +296,8 @@ PATH_ON_SPLINE_TOL_M = 1e-3
 #: Largest distance (m) of the joint samples' first and last tip from the path's ends (the planner's: < 1e-12 m;
 #: a path given to :meth:`~motionlib.planning.planner.Planner.plan_along` starts where its start configuration is).
 PATH_ENDS_TOL_M = 0.01
+#: Largest difference (rad, m) of the first joint sample from ``start_q``: the planner's are equal to rounding.
+START_Q_TOL = 1e-6
 
 #: Longest trajectory read (samples): 10^7 samples at 200 Hz are 14 hours of motion.
 MAX_SAMPLES = 10_000_000
@@ -424,7 +426,7 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
     if not off <= PATH_ON_SPLINE_TOL_M:
         fail(f"path/tip is not on path/spline (off by {off:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
     start = np.asarray(traj.info.start_q, dtype=np.float64)
-    if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
+    if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=START_Q_TOL):
         fail(f"q[0] {rounded(traj.q[0])} differs from start_q {rounded(start)}")
     if crane is not None:
         from ..model.limits import limits_for, verify_samples  # imports TOPPRA: not at the top (select starts fast)

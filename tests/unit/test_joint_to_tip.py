@@ -20,7 +20,7 @@ def crane() -> Crane:
 def test_spline_passes_through_the_polyline_tips_in_short_steps(crane):
     q_wp = np.array([[-1.0, 0.6, -1.5, 0.3], [0.2, 0.9, -1.2, 1.2], [1.1, 0.5, -1.6, 0.6]])
     step = 0.25
-    spline, profile = tip_path_from_joint_path(crane, q_wp, degree=5, step_m=step)
+    spline, profile, _ = tip_path_from_joint_path(crane, q_wp, degree=5, step_m=step)
     tips = spline.waypoints
     assert np.allclose(tips[0], crane.fk(q_wp[0])) and np.allclose(tips[-1], crane.fk(q_wp[-1]))
     # every vertex's tip is a waypoint; the pieces are equal joint-linear fractions of a segment, so
