@@ -10,8 +10,11 @@ result with a status):
    * ``tip-rrt`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
      with OMPL, simplified, fitted with an arc-length cubic spline and repaired where the spline
      overshoots. A tip state is valid when the grapple (and log) keeps its clearance and some
-     telescope extension reaches it inside the workspace with the whole arm clear. Kept as a
-     candidate, so the result is never slower than the tip-shortest path.
+     telescope extension reaches it inside the workspace with the whole arm clear, and (a slew range
+     beyond a full turn) its heading is off the cut that keeps the path's slew within the limits
+     (:mod:`motionlib.planning.slew_cut`). Kept as a candidate, so the result is never slower than
+     the tip-shortest path. Any candidate path whose slew leaves the limits is dropped before its
+     telescope profile.
    * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
      RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
      configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
@@ -89,6 +92,7 @@ from .redundancy import (
 )
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
 from .shaping import ShapedMotion, restretched, shaped_candidates
+from .slew_cut import slew_cut
 from .smoothness import smoothness
 from .spline import TipSpline
 from .swing import predict_swing
@@ -118,7 +122,8 @@ class PlanStatus(Enum):
 #: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
 #: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: a start with the jib past straight is planned along the
-#: joint candidates' own configurations (before: from the IK's other configuration of its tip).
+#: joint candidates' own configurations (before: from the IK's other configuration of its tip), and the tip-space
+#: path keeps the slew within its limits (a slew cut).
 PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
@@ -455,8 +460,16 @@ class Planner:
         if on_branch:
             path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s,
                                     seed=o.seed, bounds=self._bounds())
+            cut = slew_cut(crane, float(start_q[0]), goal_p)  # the tip path keeps the slew within its limits
+
+            def tip_valid(p: np.ndarray) -> bool:
+                return not (cut is not None and cut.blocks(p)) and self._tip_valid(p)
+
+            def grapple_valid(p: np.ndarray) -> bool:
+                return not (cut is not None and cut.blocks(p)) and self._grapple_valid(p)
+
             t0 = time.perf_counter()
-            path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
+            path = plan_tip_path(start_p, goal_p, tip_valid, path_opts, spline_is_valid=grapple_valid)
             stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
             if path.status is PathStatus.OK and path.spline is not None:
                 t0 = time.perf_counter()
@@ -871,7 +884,9 @@ class Planner:
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
         profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
-        is kept under ``optimised``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
+        is kept under ``optimised``). A path whose slew, unwrapped from the start's
+        (:meth:`~motionlib.model.kinematics.Crane.slew_along`), leaves the slew limits has none (its reason
+        under ``path``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
         (m, 4), the joint polyline whose tips are the spline's waypoints (a start off the closed-form
         IK's branch), its own configurations are the only joint path (profile ``joint``, recorded with
         the fitted telescope profile ``initial``).
@@ -882,6 +897,11 @@ class Planner:
         degree = o.redundancy.degree
         s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
         p_grid = spline(s_grid)
+        q1 = crane.slew_along(p_grid, float(start_q[0]))
+        if q1.min() < crane.q_min[0] or q1.max() > crane.q_max[0]:  # no telescope profile can help
+            reason = (f"the tip path needs the slew from {q1.min():.3f} to {q1.max():.3f} rad, beyond its limits "
+                      f"[{crane.q_min[0]}, {crane.q_max[0]}] rad")
+            return _Candidate(spline, s_grid, {}, {}, {"path": reason}), {"status": "slew", "reason": reason}
         rotators: dict[str, TelescopeProfile] = {}
         if joint_q is not None and initial is not None:
             profiles = {JOINT_PROFILE: initial}
