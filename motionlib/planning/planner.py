@@ -48,7 +48,8 @@ Grapple rotator (cranes with one, :mod:`motionlib.planning.rotator`): every cand
 gets a fifth column, the rotator profile q5(s), so that the log ends at ``PlanOptions.goal_log_yaw``
 (mod pi; e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW`) or keeps the start angle; the
 arm screen, TOPPRA (the rotator's velocity, acceleration and pump share) and the dense verification
-use it, the collision checks with the log's actual yaw ``q1 + q5``. The path stage (OMPL tip states)
+use it, the collision checks with the log's actual yaw ``q1 + q5`` (the screen: the grapple and log
+keep ``clearance_m``, the arm ``arm_clearance_m``). The path stage (OMPL tip states)
 and the joint-space paths still hold a carried log along the tip's heading, as for a crane without
 a rotator: a proxy; the verified trajectory is checked with the actual yaw.
 
@@ -123,7 +124,7 @@ class PlanStatus(Enum):
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
 #: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: a start with the jib past straight is planned along the
 #: joint candidates' own configurations (before: from the IK's other configuration of its tip), and the tip-space
-#: path keeps the slew within its limits (a slew cut).
+#: path keeps the slew within its limits (a slew cut); the turned log is screened with the grapple's clearance.
 PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
@@ -999,8 +1000,10 @@ class Planner:
         rejected: dict[str, str],
         rotators: dict[str, TelescopeProfile],
     ) -> None:
-        """The first rotator shape whose log (at its actual yaw) and arm keep the clearance (:meth:`_screen`)."""
+        """The first rotator shape whose arm keeps ``arm_clearance_m`` and whose grapple and log, at the log's
+        actual yaw, keep ``clearance_m`` (:meth:`_screen`)."""
         o = self.options
+        tips = self.crane.fk_batch(q_chk)
         try:
             q5_goal = goal_rotator(self.crane, float(q_grid[-1, 0]), q5_start, o.goal_log_yaw, float(q_grid[0, 0]))
         except InputError as exc:
@@ -1009,11 +1012,16 @@ class Planner:
         shapes = ROTATOR_SHAPES if q5_goal != q5_start else ROTATOR_SHAPES[:1]
         for shape in shapes:
             rot = rotator_profile(shape, q5_start, q5_goal, length, o.redundancy.degree)
-            if not self._arm_checker.configurations_in_collision(add_rotator(q_chk, rot, s_check), o.loaded).any():
+            q_full = add_rotator(q_chk, rot, s_check)
+            if not (
+                self._arm_checker.configurations_in_collision(q_full, o.loaded).any()
+                or self._path_checker.tips_in_collision(tips, o.loaded, self.crane.log_yaw(q_full)).any()
+            ):
                 usable[name] = add_rotator(q_grid, rot, s_grid)
                 rotators[name] = rot
                 return
-        rejected[name] = f"the arm or the turned log comes within {o.arm_clearance_m} m of an obstacle"
+        rejected[name] = (f"the arm comes within {o.arm_clearance_m} m or the turned log within {o.clearance_m} m "
+                          "of an obstacle")
 
 
 def _shaper_label(motion: ShapedMotion) -> str:
