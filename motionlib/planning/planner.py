@@ -17,7 +17,9 @@ result with a status):
      telescope profile.
    * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
      RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
-     configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
+     configurations: the goal point's across the telescope's stroke and on both slew branches,
+     collision-checked before any search, the smallest :func:`~.lower_bound.configuration_bound_s`
+     first and spread over the stroke (a goal whose search fails gives way to the next). They
      are timed and verified as the joint-space baseline; the ``joint_candidates_max`` fastest
      are turned into minimum-time joint motions near them (:mod:`motionlib.planning.trajopt`:
      the joints need not move in step), whose paths become tip splines with a fitted telescope
@@ -81,7 +83,7 @@ from ..model.limits import Limit, limits_for
 from ..model.scene import Scene
 from .joint_to_tip import configurations_along, tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
-from .lower_bound import best_goal_telescope, lower_bound_s
+from .lower_bound import best_goal_telescope, configuration_bound_s, lower_bound_s
 from .path import DEFAULT_PATH_CHECKS, PathOptions, PathStatus, plan_tip_path, spline_check_grid
 from .redundancy import (
     RedundancyOptions,
@@ -124,7 +126,8 @@ class PlanStatus(Enum):
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
 #: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: a start with the jib past straight is planned along the
 #: joint candidates' own configurations (before: from the IK's other configuration of its tip), and the tip-space
-#: path keeps the slew within its limits (a slew cut); the turned log is screened with the grapple's clearance.
+#: path keeps the slew within its limits (a slew cut); the turned log is screened with the grapple's clearance; the
+#: joint-space goals span the telescope's stroke and both slew branches, collision-checked before the searches.
 PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
@@ -135,6 +138,11 @@ JOINT_PROFILE = "joint"
 #: Why the closed-form IK's joint paths are not used from a start with the jib past straight.
 OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the start configuration back (its jib is "
                      "past straight): only joint paths start there")
+#: Telescope values across the stroke of the goal configurations of the joint-space searches (on every slew branch).
+GOAL_TELESCOPE_SAMPLES = 12
+#: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
+#: fails are replaced by the next).
+JOINT_SEARCHES_PER_GOAL = 2
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
@@ -189,8 +197,9 @@ class PlanOptions:
     jointspace : JointPathOptions
         Joint-space path search (candidates and the joint-space baseline).
     goal_telescopes : int
-        Goal telescope values of the joint-space paths: the one of the smallest lower bound, and
-        ``goal_telescopes - 1`` more spread over the stroke.
+        Goal configurations with a joint-space path, at most: of the goal point's configurations across the
+        telescope's stroke on every slew branch, the valid ones by increasing lower bound, spread over the
+        stroke (``Planner._goal_configurations``); a goal whose search fails is replaced by the next.
     joint_candidates : bool
         Plan joint-space paths (candidates and the joint-space baseline); False gives the
         tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
@@ -831,11 +840,15 @@ class Planner:
 
     def _configs_valid(self, qs: np.ndarray) -> bool:
         """:meth:`_config_valid` for every configuration of ``qs`` (n, 4), with the batched collision checks."""
+        return bool(self._valid_configs(qs).all())
+
+    def _valid_configs(self, qs: np.ndarray) -> np.ndarray:
+        """:meth:`_config_valid` of each configuration of ``qs`` (n, 4) -> (n,) bool, with the batched checks."""
         loaded = self.options.loaded
-        return bool(
-            np.all(self.crane.within_limits(qs))
-            and not self._arm_checker.configurations_in_collision(qs, loaded).any()
-            and not self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded).any()
+        return (
+            self.crane.within_limits(qs)
+            & ~self._arm_checker.configurations_in_collision(qs, loaded)
+            & ~self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded)
         )
 
     def _clearances(self, q: np.ndarray) -> np.ndarray:
@@ -850,30 +863,73 @@ class Planner:
         )
 
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Joint paths to ``goal_telescopes`` goal configurations: the one with the smallest lower bound
-        first, then values spread over the stroke. Returns paths by name ``joint-<source>-q4=<value>``
-        and diagnostics (the reasons of the goals without a path)."""
+        """Joint paths to up to ``goal_telescopes`` goal configurations (:meth:`_goal_configurations`, searched in
+        their order until that many have a path, at most ``JOINT_SEARCHES_PER_GOAL * goal_telescopes``
+        searches). Returns paths by name ``joint-<source>-q4=<value>`` (with ``-q1=<value>`` on a slew branch
+        other than the start's nearest) and diagnostics (the goals, the reasons of those without a path)."""
         crane, o = self.crane, self.options
-        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
-        telescopes = [float(np.clip(best_goal_telescope(crane, self.limits, start_q, goal_p), q4_lo, q4_hi))]
-        telescopes += list(q4_lo + (q4_hi - q4_lo) * (np.arange(1, o.goal_telescopes) / o.goal_telescopes))
+        goals, bounds, near, n_spread = self._goal_configurations(start_q, goal_p)
         paths: dict[str, np.ndarray] = {}
         failed: dict[str, str] = {}
-        for q4 in telescopes:
-            if not np.isfinite(q4):
-                continue
-            q_goal, ok = crane.ik_batch(goal_p[None, :], np.array([q4]), q1_ref=float(start_q[0]))
-            if not ok[0]:
-                failed[f"q4={q4:.2f}"] = "unreachable"
-                continue
-            res = plan_joint_path(
-                crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed, self._configs_valid
-            )
+        for q_goal in goals[: JOINT_SEARCHES_PER_GOAL * o.goal_telescopes]:
+            if len(paths) == o.goal_telescopes:
+                break
+            label = f"q4={q_goal[3]:.2f}" + ("" if abs(q_goal[0] - near) < math.pi else f"-q1={q_goal[0]:.2f}")
+            res = plan_joint_path(crane, start_q, q_goal, self._config_valid, o.jointspace, o.seed, self._configs_valid)
             if res.ok:
-                paths[f"joint-{res.source}-q4={q4:.2f}"] = res.waypoints
+                paths[f"joint-{res.source}-{label}"] = res.waypoints
             else:
-                failed[f"q4={q4:.2f}"] = res.reason
-        return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
+                failed[label] = res.reason
+        details = {"goals": [[float(q[0]), float(q[3]), b] for q, b in zip(goals, bounds, strict=True)],
+                   "spread_goals": n_spread, "failed": failed}
+        return paths, details
+
+    def _goal_configurations(
+        self, start_q: np.ndarray, goal_p: np.ndarray
+    ) -> tuple[np.ndarray, list[float], float, int]:
+        """Goal configurations of the joint-space searches, collision-checked before any search.
+
+        The goal point's configurations (closed-form IK) at ``GOAL_TELESCOPE_SAMPLES`` telescope values across
+        the stroke (``redundancy.telescope_margin_m`` inside it) and the value of the smallest lower bound
+        (:func:`~.lower_bound.best_goal_telescope`), on every slew branch within the limits; those valid under
+        :meth:`_config_valid`, by increasing :func:`~.lower_bound.configuration_bound_s`; one within
+        ``1 / (2 goal_telescopes)`` of the stroke of an earlier one on its branch comes after all the others.
+
+        Returns
+        -------
+        goals : ndarray, shape (k, 4)
+        bounds : list of float
+            Their lower bounds (s).
+        near : float
+            The slew branch (rad) nearest the start's slew.
+        n_spread : int
+            How many of them are spread over the stroke (come before the others).
+        """
+        crane, o = self.crane, self.options
+        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
+        q4 = np.linspace(q4_lo, q4_hi, GOAL_TELESCOPE_SAMPLES)
+        best = best_goal_telescope(crane, self.limits, start_q, goal_p)
+        if np.isfinite(best):
+            q4 = np.append(np.clip(best, q4_lo, q4_hi), q4)
+        heading = math.atan2(float(goal_p[1]), float(goal_p[0]))
+        branches = [heading + k * 2.0 * math.pi for k in (-1, 0, 1)]
+        branches = [b for b in branches if crane.q_min[0] <= b <= crane.q_max[0]]
+        near = min(branches, key=lambda b: abs(b - start_q[0]), default=heading)
+        solved = [crane.ik_batch(np.tile(goal_p, (len(q4), 1)), q4, q1_ref=b) for b in branches]
+        qs = np.concatenate([q[ok] for q, ok in solved]) if solved else np.zeros((0, 4))
+        if len(qs):
+            qs = qs[self._valid_configs(qs)]
+        bounds = [configuration_bound_s(start_q, q, self.limits, 0.0) for q in qs]
+        spacing = (q4_hi - q4_lo) / (2 * o.goal_telescopes)
+        spread: list[int] = []
+        near_ones: list[int] = []
+        for i in sorted(range(len(qs)), key=lambda k: bounds[k]):
+            if all(abs(qs[i, 0] - qs[j, 0]) > math.pi or abs(qs[i, 3] - qs[j, 3]) >= spacing for j in spread):
+                spread.append(i)
+            else:
+                near_ones.append(i)
+        order = spread + near_ones
+        return qs[order], [bounds[i] for i in order], near, len(spread)
 
     def _candidate(
         self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None,

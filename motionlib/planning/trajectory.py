@@ -94,10 +94,11 @@ class TrajectoryInfo:
     seed : int
         Path-planner seed.
     profile : str
-        Telescope profile used: ``optimised``, ``constant``, ``linear`` or ``fallback-linear-to-<q4>``.
+        Telescope profile used: ``optimised``, ``constant``, ``linear``, ``fitted``, ``joint`` or
+        ``fallback-linear-to-<q4>``.
     path_source : str
-        Which path candidate won: ``tip-rrt`` (OMPL in the tip space) or ``joint-<line|planner>-q4=<goal telescope>``
-        (a joint-space path in the product's shape).
+        Which path candidate won: ``tip-rrt`` (OMPL in the tip space) or
+        ``joint-<line|planner>-q4=<goal telescope>[-q1=<goal slew>]`` (a joint-space path in the product's shape).
     baseline_constant_s, baseline_linear_s : float
         Durations (s) of the tip-space path with a constant / linearly interpolated telescope; NaN if infeasible.
     baseline_jointspace_s : float
