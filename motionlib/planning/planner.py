@@ -24,7 +24,7 @@ result with a status):
      are turned into minimum-time joint motions near them (:mod:`motionlib.planning.trajopt`:
      the joints need not move in step), whose paths become tip splines with a fitted telescope
      profile (:mod:`motionlib.planning.joint_to_tip`); the joint path itself is the candidate
-     when that fails.
+     when that fails or its tip spline comes within the grapple's clearance of an obstacle.
 
 2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the minimum-time
    Bézier telescope profile (CasADi + IPOPT) on every candidate; on ``tip-rrt`` also the
@@ -133,6 +133,8 @@ PLANNER_VERSION = 6
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
 GIVEN_SOURCE = "given"  # the path of Planner.plan_along
+#: Suffix of a joint candidate made from the minimum-time joint motion near a joint path.
+TRAJOPT_SUFFIX = "+trajopt"
 #: Profile name of a joint path's own configurations (a start off the closed-form IK's branch).
 JOINT_PROFILE = "joint"
 #: Why the closed-form IK's joint paths are not used from a start with the jib past straight.
@@ -524,21 +526,18 @@ class Planner:
                 **motion.diagnostics,
             }
             if motion.ok:  # the optimised motion's path is the candidate
-                sources[f"{name}+trajopt"] = motion.polyline()
+                sources[name + TRAJOPT_SUFFIX] = motion.polyline()
             else:  # the joint path itself
                 sources[name] = joint_paths[name]
         for name, q_wp in sources.items():
-            try:
-                spline, initial, q_sub = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
-            except InputError as exc:
-                rejected_sources[name] = str(exc)
-                continue
-            s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
-            if not all(self._grapple_valid(p) for p in spline(s_chk)):
-                rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
-                continue
-            candidates[name], red_details[name] = self._candidate(spline, start_full, initial,
-                                                                  None if on_branch else q_sub)
+            reason = self._joint_candidate(name, q_wp, start_full, on_branch, candidates, red_details)
+            plain = name.removesuffix(TRAJOPT_SUFFIX)
+            if reason and plain != name:  # the optimised motion's path is unusable: the joint path itself
+                rejected_sources[name] = reason
+                name, reason = plain, self._joint_candidate(plain, joint_paths[plain], start_full, on_branch,
+                                                            candidates, red_details)
+            if reason:
+                rejected_sources[name] = reason
         t_redundancy += time.perf_counter() - t0 - t_trajopt
         stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
@@ -821,6 +820,28 @@ class Planner:
         details.update(status=status, shaper=name, added_s=motion.duration_s - timing.duration_s,
                        residual_rad=motion.swing.residual_rad, peak_rad=motion.swing.peak_rad, rejected=rejected)
         return (motion.t, motion.q, motion.qd, motion.qdd), motion.law, name, details
+
+    def _joint_candidate(
+        self,
+        name: str,
+        q_wp: np.ndarray,
+        start_full: np.ndarray,
+        on_branch: bool,
+        candidates: dict[str, _Candidate],
+        red_details: dict[str, Any],
+    ) -> str:
+        """Add the joint polyline ``q_wp`` (n, 4) in the product's shape to ``candidates`` as ``name`` (its
+        redundancy diagnostics to ``red_details``; from a start off the IK's branch with its own configurations);
+        returns why it is unusable, or an empty string."""
+        try:
+            spline, initial, q_sub = tip_path_from_joint_path(self.crane, q_wp, self.options.redundancy.degree)
+        except InputError as exc:
+            return str(exc)
+        s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
+        if not all(self._grapple_valid(p) for p in spline(s_chk)):
+            return "its tip spline brings the grapple within the clearance of an obstacle"
+        candidates[name], red_details[name] = self._candidate(spline, start_full, initial, None if on_branch else q_sub)
+        return ""
 
     def _ik_gives_back(self, q: np.ndarray) -> bool:
         """Whether the closed-form IK (003 eq. 4.15, the jib folded down) with ``q``'s telescope gives ``q`` (4,)
