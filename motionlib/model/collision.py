@@ -452,14 +452,14 @@ class CollisionChecker:
         overlap: np.ndarray = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
         return np.any(np.all(overlap, axis=2), axis=1)
 
-    def tips_in_collision(self, p_tip: Any, loaded: bool = False) -> np.ndarray:
-        """:meth:`tip_in_collision` for many tip points (n, 3) (m) -> (n,) bool; a vectorised box test
-        decides the points far from everything."""
+    def tips_in_collision(self, p_tip: Any, loaded: bool = False, yaw: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`tip_in_collision` for many tip points (n, 3) (m) -> (n,) bool, with the log's yaws ``yaw`` (n,)
+        (rad; default: along the tips' headings); a vectorised box test decides the points far from everything."""
         tips = check_points(p_tip, "p_tip", dim=3)
         loaded = bool(loaded)
-        hit, maybe, _ = self._hanging_screen(tips, loaded)
+        hit, maybe, _ = self._hanging_screen(tips, loaded, yaw)
         for i in np.flatnonzero(maybe & ~hit):
-            hit[i] = self.tip_in_collision(tips[i], loaded)
+            hit[i] = self.tip_in_collision(tips[i], loaded, None if yaw is None else float(yaw[i]))
         return hit
 
     @staticmethod

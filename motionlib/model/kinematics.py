@@ -416,9 +416,7 @@ class Crane:
         """
         p = check_points(p, "p")
         q4 = np.broadcast_to(np.asarray(telescope, dtype=np.float64), (p.shape[0],))
-        heading = np.unwrap(np.arctan2(p[:, 1], p[:, 0]))
-        first = self._slew_branch(heading[0], q1_ref)
-        q1 = heading + ((first - heading[0]) if first is not None else 0.0)
+        q1 = self.slew_along(p, q1_ref)
         rho = np.hypot(p[:, 0], p[:, 1]) - self.model.boom_pivot_offset
         zeta = p[:, 2] - self.model.column_height
         with np.errstate(invalid="ignore"):
@@ -427,6 +425,17 @@ class Crane:
         ok = (np.abs(cos_elbow) <= 1.0 + IK_COS_TOL) & self.within_limits(q, IK_LIMIT_TOL)
         q[ok] = np.clip(q[ok], self.q_min, self.q_max)
         return q, ok
+
+    def slew_along(self, p: np.ndarray, q1_ref: float = 0.0) -> np.ndarray:
+        """Slew angles (n,) rad that point the boom at the points ``p`` (n, 3) (m) one after another.
+
+        The headings ``atan2(y, x)``, unwrapped continuously (consecutive points less than pi apart in
+        heading), on the branch of the first point within the slew limits nearest ``q1_ref`` (its heading
+        when none is within them). Later points may leave the slew limits: a path that winds past them.
+        """
+        heading = np.unwrap(np.arctan2(p[:, 1], p[:, 0]))
+        first = self._slew_branch(heading[0], q1_ref)
+        return heading + ((first - heading[0]) if first is not None else 0.0)
 
     def reachable(self, p_tip: np.ndarray, margin: float = 0.0) -> bool:
         """True when some telescope extension reaches ``p_tip`` (3,) within all joint limits.

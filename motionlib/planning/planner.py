@@ -10,16 +10,21 @@ result with a status):
    * ``tip-rrt`` (:mod:`motionlib.planning.path`, 000 section 2.3): a collision-free tip path
      with OMPL, simplified, fitted with an arc-length cubic spline and repaired where the spline
      overshoots. A tip state is valid when the grapple (and log) keeps its clearance and some
-     telescope extension reaches it inside the workspace with the whole arm clear. Kept as a
-     candidate, so the result is never slower than the tip-shortest path.
+     telescope extension reaches it inside the workspace with the whole arm clear, and (a slew range
+     beyond a full turn) its heading is off the cut that keeps the path's slew within the limits
+     (:mod:`motionlib.planning.slew_cut`). Kept as a candidate, so the result is never slower than
+     the tip-shortest path. Any candidate path whose slew leaves the limits is dropped before its
+     telescope profile.
    * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
      RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
-     configurations (the one with the smallest :func:`~.lower_bound.lower_bound_s` first). They
+     configurations: the goal point's across the telescope's stroke and on both slew branches,
+     collision-checked before any search, the smallest :func:`~.lower_bound.configuration_bound_s`
+     first and spread over the stroke (a goal whose search fails gives way to the next). They
      are timed and verified as the joint-space baseline; the ``joint_candidates_max`` fastest
      are turned into minimum-time joint motions near them (:mod:`motionlib.planning.trajopt`:
      the joints need not move in step), whose paths become tip splines with a fitted telescope
      profile (:mod:`motionlib.planning.joint_to_tip`); the joint path itself is the candidate
-     when that fails.
+     when that fails or its tip spline comes within the grapple's clearance of an obstacle.
 
 2. ``redundancy`` (:mod:`motionlib.planning.redundancy`, 003 section 4.4.2): the minimum-time
    Bézier telescope profile (CasADi + IPOPT) on every candidate; on ``tip-rrt`` also the
@@ -32,7 +37,8 @@ result with a status):
 4. ``verification``: fastest first, until none left could beat the best verified: the 200 Hz
    samples are re-checked for every limit (1 % tolerance) and for collisions at <= 1 cm tip
    spacing; when samples between TOPPRA's grid points overshoot a limit, that path is re-timed
-   under a safety factor on a denser grid (TIMING_ATTEMPTS). The stage ``candidates`` records
+   under a safety factor on a denser grid (TIMING_ATTEMPTS); the first sample must be the start
+   configuration and the last sample's tip the goal. The stage ``candidates`` records
    which source won (also ``TrajectoryInfo.path_source``).
 5. ``swing`` (:mod:`motionlib.planning.shaping`, ``PlanOptions.swing_shaping``): the winner's time law is
    shaped so that the grapple's predicted residual swing (:mod:`motionlib.planning.swing`) is within
@@ -44,9 +50,15 @@ Grapple rotator (cranes with one, :mod:`motionlib.planning.rotator`): every cand
 gets a fifth column, the rotator profile q5(s), so that the log ends at ``PlanOptions.goal_log_yaw``
 (mod pi; e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW`) or keeps the start angle; the
 arm screen, TOPPRA (the rotator's velocity, acceleration and pump share) and the dense verification
-use it, the collision checks with the log's actual yaw ``q1 + q5``. The path stage (OMPL tip states)
+use it, the collision checks with the log's actual yaw ``q1 + q5`` (the screen: the grapple and log
+keep ``clearance_m``, the arm ``arm_clearance_m``). The path stage (OMPL tip states)
 and the joint-space paths still hold a carried log along the tip's heading, as for a crane without
 a rotator: a proxy; the verified trajectory is checked with the actual yaw.
+
+A start with the jib past straight (the forwarder's jib reaches 0.15 rad) is not on the closed-form IK's
+branch (003 eq. 4.15, the jib folded down), which gives the other configuration of the same tip: from such
+a start no tip-space path is searched and the joint candidates keep their own configurations (profile
+``joint``, :func:`~motionlib.planning.joint_to_tip.configurations_along`).
 
 Every plan reports the pump-aware lower bound and the joint-space baseline beside the
 telescope baselines. :func:`plan` never raises for a planning failure: it returns a
@@ -69,9 +81,9 @@ from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
 from ..model.limits import Limit, limits_for
 from ..model.scene import Scene
-from .joint_to_tip import tip_path_from_joint_path
+from .joint_to_tip import configurations_along, tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
-from .lower_bound import best_goal_telescope, lower_bound_s
+from .lower_bound import best_goal_telescope, configuration_bound_s, lower_bound_s
 from .path import DEFAULT_PATH_CHECKS, PathOptions, PathStatus, plan_tip_path, spline_check_grid
 from .redundancy import (
     RedundancyOptions,
@@ -84,12 +96,13 @@ from .redundancy import (
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
 from .settled_law import settled_law
 from .shaping import ShapedMotion, Shaper, restretched, shape, shaped_candidates
+from .slew_cut import slew_cut
 from .smoothness import smoothness
 from .spline import TipSpline
 from .swing import predict_swing
 from .time_law import TimeLaw
 from .timing import TimingResult, TimingStatus, time_scale
-from .trajectory import StageReport, Trajectory, TrajectoryInfo
+from .trajectory import START_Q_TOL, StageReport, Trajectory, TrajectoryInfo
 from .trajopt import fastest_valid_trajectory
 from .verification import LIMIT_TOLERANCE, Verifier, time_and_verify
 
@@ -116,12 +129,28 @@ class PlanStatus(Enum):
 #: 3: joint candidates are minimum-time joint motions (trajopt); 4: the OMPL searches' budgets are
 #: validity checks, not seconds (the same answer on any machine and load); 5: swing shaping of the time law
 #: (:mod:`motionlib.planning.shaping`), jerk-limited; 6: first the minimum-time law with the swing in the problem
-#: (:mod:`motionlib.planning.settled_law`), the shapers only where it fails.
+#: (:mod:`motionlib.planning.settled_law`), the shapers only where it fails; a start with the jib past straight is
+#: planned along the joint candidates' own configurations (before: from the IK's other configuration of its tip),
+#: and the tip-space path keeps the slew within its limits (a slew cut); the turned log is screened with the
+#: grapple's clearance; the joint-space goals span the telescope's stroke and both slew branches, collision-checked
+#: before the searches.
 PLANNER_VERSION = 6
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
 GIVEN_SOURCE = "given"  # the path of Planner.plan_along
+#: Suffix of a joint candidate made from the minimum-time joint motion near a joint path.
+TRAJOPT_SUFFIX = "+trajopt"
+#: Profile name of a joint path's own configurations (a start off the closed-form IK's branch).
+JOINT_PROFILE = "joint"
+#: Why the closed-form IK's joint paths are not used from a start with the jib past straight.
+OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the start configuration back (its jib is "
+                     "past straight): only joint paths start there")
+#: Telescope values across the stroke of the goal configurations of the joint-space searches (on every slew branch).
+GOAL_TELESCOPE_SAMPLES = 12
+#: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
+#: fails are replaced by the next).
+JOINT_SEARCHES_PER_GOAL = 2
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
@@ -176,8 +205,9 @@ class PlanOptions:
     jointspace : JointPathOptions
         Joint-space path search (candidates and the joint-space baseline).
     goal_telescopes : int
-        Goal telescope values of the joint-space paths: the one of the smallest lower bound, and
-        ``goal_telescopes - 1`` more spread over the stroke.
+        Goal configurations with a joint-space path, at most: of the goal point's configurations across the
+        telescope's stroke on every slew branch, the valid ones by increasing lower bound, spread over the
+        stroke (``Planner._goal_configurations``); a goal whose search fails is replaced by the next.
     joint_candidates : bool
         Plan joint-space paths (candidates and the joint-space baseline); False gives the
         tip-space pipeline alone (for comparisons; ``baseline_jointspace_s`` is then NaN).
@@ -474,20 +504,33 @@ class Planner:
         candidates: dict[str, _Candidate] = {}
         rejected_sources: dict[str, str] = {}
 
-        # 1a. Tip-space path (today's source, kept so the result is never slower than it).
-        path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s, seed=o.seed,
-                                bounds=self._bounds())
-        t0 = time.perf_counter()
-        path = plan_tip_path(start_p, goal_p, self._tip_valid, path_opts, spline_is_valid=self._grapple_valid)
-        stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+        # 1a. Tip-space path (today's source, kept so the result is never slower than it). Its joint path
+        #     comes from the closed-form IK, which cannot start at a start with the jib past straight.
+        on_branch = self._ik_gives_back(start_q)
         t_redundancy = 0.0
         red_details: dict[str, Any] = {}
-        if path.status is PathStatus.OK and path.spline is not None:
+        if on_branch:
+            path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s,
+                                    seed=o.seed, bounds=self._bounds())
+            cut = slew_cut(crane, float(start_q[0]), goal_p)  # the tip path keeps the slew within its limits
+
+            def tip_valid(p: np.ndarray) -> bool:
+                return not (cut is not None and cut.blocks(p)) and self._tip_valid(p)
+
+            def grapple_valid(p: np.ndarray) -> bool:
+                return not (cut is not None and cut.blocks(p)) and self._grapple_valid(p)
+
             t0 = time.perf_counter()
-            candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
-            t_redundancy += time.perf_counter() - t0
+            path = plan_tip_path(start_p, goal_p, tip_valid, path_opts, spline_is_valid=grapple_valid)
+            stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+            if path.status is PathStatus.OK and path.spline is not None:
+                t0 = time.perf_counter()
+                candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
+                t_redundancy += time.perf_counter() - t0
+            else:
+                rejected_sources[TIP_SOURCE] = path.reason
         else:
-            rejected_sources[TIP_SOURCE] = path.reason
+            rejected_sources[TIP_SOURCE] = OFF_BRANCH_REASON
 
         # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
         #     candidates in the product's shape (tip spline of their forward kinematics).
@@ -523,20 +566,18 @@ class Planner:
                 **motion.diagnostics,
             }
             if motion.ok:  # the optimised motion's path is the candidate
-                sources[f"{name}+trajopt"] = motion.polyline()
+                sources[name + TRAJOPT_SUFFIX] = motion.polyline()
             else:  # the joint path itself
                 sources[name] = joint_paths[name]
         for name, q_wp in sources.items():
-            try:
-                spline, initial = tip_path_from_joint_path(crane, q_wp, o.redundancy.degree)
-            except InputError as exc:
-                rejected_sources[name] = str(exc)
-                continue
-            s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
-            if not all(self._grapple_valid(p) for p in spline(s_chk)):
-                rejected_sources[name] = "its tip spline brings the grapple within the clearance of an obstacle"
-                continue
-            candidates[name], red_details[name] = self._candidate(spline, start_full, initial)
+            reason = self._joint_candidate(name, q_wp, start_full, on_branch, candidates, red_details)
+            plain = name.removesuffix(TRAJOPT_SUFFIX)
+            if reason and plain != name:  # the optimised motion's path is unusable: the joint path itself
+                rejected_sources[name] = reason
+                name, reason = plain, self._joint_candidate(plain, joint_paths[plain], start_full, on_branch,
+                                                            candidates, red_details)
+            if reason:
+                rejected_sources[name] = reason
         t_redundancy += time.perf_counter() - t0 - t_trajopt
         stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
@@ -637,9 +678,8 @@ class Planner:
                 break
             cand = usable[key[0]]
             t1 = time.perf_counter()
-            timing, report, attempt = time_and_verify(
-                cand.s_grid, cand.q_paths[key[1]], self.full_attempts, self.full_verifier, o.dt_s, first=timed[key]
-            )
+            timing, report, attempt = time_and_verify(cand.s_grid, cand.q_paths[key[1]], self.full_attempts,
+                                                      self.full_verifier, o.dt_s, timed[key], start_q, goal_p)
             t_verify += time.perf_counter() - t1
             ok = bool(timing.ok and report is not None and report.ok)
             label = f"{key[0]}/{key[1]}"
@@ -672,7 +712,7 @@ class Planner:
         )
 
         t0 = time.perf_counter()
-        samples, law, shaper, swing_details = self._shape(timing)
+        samples, law, shaper, swing_details = self._shape(timing, start_q, goal_p)
         stages["swing"] = StageReport(swing_details.get("status", "ok") if samples is not None else "failed",
                                       time.perf_counter() - t0, swing_details)
         if samples is None or law is None:
@@ -729,13 +769,14 @@ class Planner:
         return PlanResult(PlanStatus.OK, "", traj, stages, baselines, lower_bound)
 
     def _shape(
-        self, timing: TimingResult
+        self, timing: TimingResult, start_q: np.ndarray, goal_p: np.ndarray
     ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None, TimeLaw | None, str, dict[str, Any]]:
         """Stage 5: swing shaping of the verified time-optimal timing (:mod:`motionlib.planning.shaping`).
 
         The candidates come shortest first; the first whose predicted residual swing is within
         ``swing_tolerance_rad`` and whose samples pass the dense verification (limits, pump,
-        collisions and the residual swing again) is kept. A shaped motion that fails is rejected
+        collisions, the start and goal (``start_q`` (4,) or (5,), ``goal_p`` (3,)) and the residual swing
+        again) is kept. A shaped motion that fails is rejected
         (its problem recorded) and never returned. When no candidate's swing is within the tolerance,
         the one with the least swing that verifies (limits, pump, collisions) is kept: the stage's
         status is then ``above_tolerance`` and the plan reports its residual swing and time to settled
@@ -773,19 +814,19 @@ class Planner:
         law = timing.law
         tol = o.swing_tolerance_rad
         above: list[ShapedMotion] = []  # candidates above the tolerance, for when none meets it
-        motion = self._settled_motion(law, details, rejected)
+        motion = self._settled_motion(law, details, rejected, start_q, goal_p)
         if motion is not None:
             return self._shaped(motion, timing, details, rejected, "ok")
         for candidate in shaped_candidates(law, self.crane, self.pendulum, tol, o.jerk_box_s, o.dt_s):
             if candidate.swing.residual_rad > tol:
                 above.append(candidate)
                 continue
-            motion = self._verified_shaping(candidate, tol, rejected)
+            motion = self._verified_shaping(candidate, tol, rejected, start_q, goal_p)
             if motion is not None:
                 return self._shaped(motion, timing, details, rejected, "ok")
         # none meets the tolerance: the least swing that verifies, reported as it is
         for candidate in sorted(above, key=lambda m: (m.swing.residual_rad, m.duration_s)):
-            motion = self._verified_shaping(candidate, None, rejected)
+            motion = self._verified_shaping(candidate, None, rejected, start_q, goal_p)
             if motion is not None:
                 details["reason"] = (f"no shaping leaves less than {tol} rad of swing; the least that verifies, "
                                      f"{motion.swing.residual_rad:.3f} rad, is kept")
@@ -793,7 +834,8 @@ class Planner:
         details.update(rejected=rejected, reason=f"no swing-shaped motion verifies (rejected: {len(rejected)})")
         return None, None, "", details
 
-    def _settled_motion(self, law: TimeLaw, details: dict[str, Any], rejected: dict[str, str]) -> ShapedMotion | None:
+    def _settled_motion(self, law: TimeLaw, details: dict[str, Any], rejected: dict[str, str], start_q: np.ndarray,
+                       goal_p: np.ndarray) -> ShapedMotion | None:
         """The minimum-time law with the swing in the problem (:func:`~motionlib.planning.settled_law.settled_law`)
         and the jerk box, if its predicted swing is within the tolerance and it verifies; else None.
 
@@ -813,32 +855,33 @@ class Planner:
                 return None
             motion = shape(settled.law, Shaper("settled", ((0.0, 1.0),), o.jerk_box_s), self.crane, self.pendulum,
                            o.swing_tolerance_rad, o.dt_s)
+            label = f"settled (limits x {scale:.3f})"
             if motion.swing.residual_rad > o.swing_tolerance_rad:
-                rejected[f"settled (limits x {scale:.3f})"] = f"predicted residual swing {motion.swing.residual_rad:.3f} rad"
+                rejected[label] = f"predicted residual swing {motion.swing.residual_rad:.3f} rad"
                 return None
-            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd,
-                                               swing_tolerance_rad=o.swing_tolerance_rad)
+            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, o.swing_tolerance_rad,
+                                               start_q, goal_p)
             if report.ok:
                 return motion
-            rejected[f"settled (limits x {scale:.3f})"] = report.problems[0]
-            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
+            rejected[label] = report.problems[0]
+            if report.problems != report.limits or report.limit_ratio > MAX_RESTRETCH:  # only limits are re-solved
                 return None
             scale /= report.limit_ratio * (1.0 + LIMIT_TOLERANCE)
         return None
 
-    def _verified_shaping(self, motion: ShapedMotion, tolerance: float | None,
-                          rejected: dict[str, str]) -> ShapedMotion | None:
+    def _verified_shaping(self, motion: ShapedMotion, tolerance: float | None, rejected: dict[str, str],
+                          start_q: np.ndarray, goal_p: np.ndarray) -> ShapedMotion | None:
         """``motion`` if it passes the dense verification (with the swing check for a ``tolerance``), or its
         re-shaping with the base law stretched by the worst limit ratio (at most ``SHAPING_RESTRETCHES``
         times, for ratios up to ``MAX_RESTRETCH``; the shaped speeds mix the path's joint ratios); None when
         it fails (problems in ``rejected``)."""
         o = self.options
         for _ in range(SHAPING_RESTRETCHES + 1):
-            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, swing_tolerance_rad=tolerance)
+            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, tolerance, start_q, goal_p)
             if report.ok:
                 return motion
             rejected[_shaper_label(motion)] = report.problems[0]
-            if report.collisions or report.swing or not report.limits or report.limit_ratio > MAX_RESTRETCH:
+            if report.problems != report.limits or report.limit_ratio > MAX_RESTRETCH:  # only limits are re-shaped
                 return None
             motion = restretched(motion, report.limit_ratio * (1.0 + LIMIT_TOLERANCE), self.crane,
                                  self.pendulum, o.swing_tolerance_rad, o.dt_s)
@@ -856,6 +899,34 @@ class Planner:
                        residual_rad=motion.swing.residual_rad, peak_rad=motion.swing.peak_rad, rejected=rejected)
         return (motion.t, motion.q, motion.qd, motion.qdd), motion.law, name, details
 
+    def _joint_candidate(
+        self,
+        name: str,
+        q_wp: np.ndarray,
+        start_full: np.ndarray,
+        on_branch: bool,
+        candidates: dict[str, _Candidate],
+        red_details: dict[str, Any],
+    ) -> str:
+        """Add the joint polyline ``q_wp`` (n, 4) in the product's shape to ``candidates`` as ``name`` (its
+        redundancy diagnostics to ``red_details``; from a start off the IK's branch with its own configurations);
+        returns why it is unusable, or an empty string."""
+        try:
+            spline, initial, q_sub = tip_path_from_joint_path(self.crane, q_wp, self.options.redundancy.degree)
+        except InputError as exc:
+            return str(exc)
+        s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
+        if not all(self._grapple_valid(p) for p in spline(s_chk)):
+            return "its tip spline brings the grapple within the clearance of an obstacle"
+        candidates[name], red_details[name] = self._candidate(spline, start_full, initial, None if on_branch else q_sub)
+        return ""
+
+    def _ik_gives_back(self, q: np.ndarray) -> bool:
+        """Whether the closed-form IK (003 eq. 4.15, the jib folded down) with ``q``'s telescope gives ``q`` (4,)
+        back from its tip: False for a jib past straight (the other branch: the same tip, another boom and jib)."""
+        q_ik, ok = self.crane.ik_batch(self.crane.fk(q)[None, :], q[3:4], q1_ref=float(q[0]))
+        return bool(ok[0]) and bool(np.allclose(q_ik[0], q, rtol=0.0, atol=START_Q_TOL))
+
     def _config_valid(self, q: np.ndarray) -> bool:
         """Joint-space validity under the tip planner's rules: within the joint limits, the arm keeps
         ``arm_clearance_m`` and the grapple (and log) ``clearance_m`` from the scene."""
@@ -868,11 +939,15 @@ class Planner:
 
     def _configs_valid(self, qs: np.ndarray) -> bool:
         """:meth:`_config_valid` for every configuration of ``qs`` (n, 4), with the batched collision checks."""
+        return bool(self._valid_configs(qs).all())
+
+    def _valid_configs(self, qs: np.ndarray) -> np.ndarray:
+        """:meth:`_config_valid` of each configuration of ``qs`` (n, 4) -> (n,) bool, with the batched checks."""
         loaded = self.options.loaded
-        return bool(
-            np.all(self.crane.within_limits(qs))
-            and not self._arm_checker.configurations_in_collision(qs, loaded).any()
-            and not self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded).any()
+        return (
+            self.crane.within_limits(qs)
+            & ~self._arm_checker.configurations_in_collision(qs, loaded)
+            & ~self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded)
         )
 
     def _clearances(self, q: np.ndarray) -> np.ndarray:
@@ -887,33 +962,77 @@ class Planner:
         )
 
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        """Joint paths to ``goal_telescopes`` goal configurations: the one with the smallest lower bound
-        first, then values spread over the stroke. Returns paths by name ``joint-<source>-q4=<value>``
-        and diagnostics (the reasons of the goals without a path)."""
+        """Joint paths to up to ``goal_telescopes`` goal configurations (:meth:`_goal_configurations`, searched in
+        their order until that many have a path, at most ``JOINT_SEARCHES_PER_GOAL * goal_telescopes``
+        searches). Returns paths by name ``joint-<source>-q4=<value>`` (with ``-q1=<value>`` on a slew branch
+        other than the start's nearest) and diagnostics (the goals, the reasons of those without a path)."""
         crane, o = self.crane, self.options
-        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
-        telescopes = [float(np.clip(best_goal_telescope(crane, self.limits, start_q, goal_p), q4_lo, q4_hi))]
-        telescopes += list(q4_lo + (q4_hi - q4_lo) * (np.arange(1, o.goal_telescopes) / o.goal_telescopes))
+        goals, bounds, near, n_spread = self._goal_configurations(start_q, goal_p)
         paths: dict[str, np.ndarray] = {}
         failed: dict[str, str] = {}
-        for q4 in telescopes:
-            if not np.isfinite(q4):
-                continue
-            q_goal, ok = crane.ik_batch(goal_p[None, :], np.array([q4]), q1_ref=float(start_q[0]))
-            if not ok[0]:
-                failed[f"q4={q4:.2f}"] = "unreachable"
-                continue
-            res = plan_joint_path(
-                crane, start_q, q_goal[0], self._config_valid, o.jointspace, o.seed, self._configs_valid
-            )
+        for q_goal in goals[: JOINT_SEARCHES_PER_GOAL * o.goal_telescopes]:
+            if len(paths) == o.goal_telescopes:
+                break
+            label = f"q4={q_goal[3]:.2f}" + ("" if abs(q_goal[0] - near) < math.pi else f"-q1={q_goal[0]:.2f}")
+            res = plan_joint_path(crane, start_q, q_goal, self._config_valid, o.jointspace, o.seed, self._configs_valid)
             if res.ok:
-                paths[f"joint-{res.source}-q4={q4:.2f}"] = res.waypoints
+                paths[f"joint-{res.source}-{label}"] = res.waypoints
             else:
-                failed[f"q4={q4:.2f}"] = res.reason
-        return paths, {"telescopes": [float(v) for v in telescopes], "failed": failed}
+                failed[label] = res.reason
+        details = {"goals": [[float(q[0]), float(q[3]), b] for q, b in zip(goals, bounds, strict=True)],
+                   "spread_goals": n_spread, "failed": failed}
+        return paths, details
+
+    def _goal_configurations(
+        self, start_q: np.ndarray, goal_p: np.ndarray
+    ) -> tuple[np.ndarray, list[float], float, int]:
+        """Goal configurations of the joint-space searches, collision-checked before any search.
+
+        The goal point's configurations (closed-form IK) at ``GOAL_TELESCOPE_SAMPLES`` telescope values across
+        the stroke (``redundancy.telescope_margin_m`` inside it) and the value of the smallest lower bound
+        (:func:`~.lower_bound.best_goal_telescope`), on every slew branch within the limits; those valid under
+        :meth:`_config_valid`, by increasing :func:`~.lower_bound.configuration_bound_s`; one within
+        ``1 / (2 goal_telescopes)`` of the stroke of an earlier one on its branch comes after all the others.
+
+        Returns
+        -------
+        goals : ndarray, shape (k, 4)
+        bounds : list of float
+            Their lower bounds (s).
+        near : float
+            The slew branch (rad) nearest the start's slew.
+        n_spread : int
+            How many of them are spread over the stroke (come before the others).
+        """
+        crane, o = self.crane, self.options
+        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
+        q4 = np.linspace(q4_lo, q4_hi, GOAL_TELESCOPE_SAMPLES)
+        best = best_goal_telescope(crane, self.limits, start_q, goal_p)
+        if np.isfinite(best):
+            q4 = np.append(np.clip(best, q4_lo, q4_hi), q4)
+        heading = math.atan2(float(goal_p[1]), float(goal_p[0]))
+        branches = [heading + k * 2.0 * math.pi for k in (-1, 0, 1)]
+        branches = [b for b in branches if crane.q_min[0] <= b <= crane.q_max[0]]
+        near = min(branches, key=lambda b: abs(b - start_q[0]), default=heading)
+        solved = [crane.ik_batch(np.tile(goal_p, (len(q4), 1)), q4, q1_ref=b) for b in branches]
+        qs = np.concatenate([q[ok] for q, ok in solved]) if solved else np.zeros((0, 4))
+        if len(qs):
+            qs = qs[self._valid_configs(qs)]
+        bounds = [configuration_bound_s(start_q, q, self.limits, 0.0) for q in qs]
+        spacing = (q4_hi - q4_lo) / (2 * o.goal_telescopes)
+        spread: list[int] = []
+        near_ones: list[int] = []
+        for i in sorted(range(len(qs)), key=lambda k: bounds[k]):
+            if all(abs(qs[i, 0] - qs[j, 0]) > math.pi or abs(qs[i, 3] - qs[j, 3]) >= spacing for j in spread):
+                spread.append(i)
+            else:
+                near_ones.append(i)
+        order = spread + near_ones
+        return qs[order], [bounds[i] for i in order], near, len(spread)
 
     def _candidate(
-        self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None
+        self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None,
+        joint_q: np.ndarray | None = None,
     ) -> tuple[_Candidate, dict[str, Any]]:
         """Telescope profiles on one tip path, screened (see :meth:`_screen`).
 
@@ -921,15 +1040,32 @@ class Planner:
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
         profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
-        is kept under ``optimised``). ``start_full`` (4,) or (5,) with the rotator.
+        is kept under ``optimised``). A path whose slew, unwrapped from the start's
+        (:meth:`~motionlib.model.kinematics.Crane.slew_along`), leaves the slew limits has none (its reason
+        under ``path``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
+        (m, 4), the joint polyline whose tips are the spline's waypoints (a start off the closed-form
+        IK's branch), its own configurations are the only joint path (profile ``joint``, recorded with
+        the fitted telescope profile ``initial``).
         """
         crane, o = self.crane, self.options
         start_q = start_full[:4]
         q5_start = float(start_full[4]) if start_full.shape[0] == 5 else None
         degree = o.redundancy.degree
+        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
+        p_grid = spline(s_grid)
+        q1 = crane.slew_along(p_grid, float(start_q[0]))
+        if q1.min() < crane.q_min[0] or q1.max() > crane.q_max[0]:  # no telescope profile can help
+            reason = (f"the tip path needs the slew from {q1.min():.3f} to {q1.max():.3f} rad, beyond its limits "
+                      f"[{crane.q_min[0]}, {crane.q_max[0]}] rad")
+            return _Candidate(spline, s_grid, {}, {}, {"path": reason}), {"status": "slew", "reason": reason}
+        rotators: dict[str, TelescopeProfile] = {}
+        if joint_q is not None and initial is not None:
+            profiles = {JOINT_PROFILE: initial}
+            q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators, joint_q)
+            details = {"status": "skipped", "reason": OFF_BRANCH_REASON, "rejected": rejected}
+            return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), details
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
         details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
-        s_grid = np.linspace(0.0, spline.length, max(40, int(np.ceil(spline.length / o.path_grid_m)) + 1))
         if red.status is not RedundancyStatus.OK or red.profile is None:  # the candidate fails with its NLP
             return _Candidate(spline, s_grid, {}, {}, {"optimised": red.reason}), details
         profiles = {"optimised": red.profile}
@@ -939,15 +1075,13 @@ class Planner:
             profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
         else:
             profiles["fitted"] = initial
-        p_grid = spline(s_grid)
-        rotators: dict[str, TelescopeProfile] = {}
-        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
+        q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators)
         if not q_paths:
             fallbacks = {
                 f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
                 for end in np.linspace(*telescope_bounds(crane, o.redundancy.telescope_margin_m), 5)
             }
-            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q[0], q5_start, rotators)
+            q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q, q5_start, rotators)
             rejected.update(more)
             profiles.update(fallbacks)
         if rotators:
@@ -960,13 +1094,17 @@ class Planner:
         spline: Any,
         s_grid: np.ndarray,
         p_grid: np.ndarray,
-        q1: float,
+        start_q: np.ndarray,
         q5_start: float | None = None,
         rotators: dict[str, TelescopeProfile] | None = None,
+        joint_q: np.ndarray | None = None,
     ) -> tuple[dict[str, np.ndarray], dict[str, str]]:
-        """Joint paths (on ``s_grid``) of the profiles that keep the joints within limits and the arm clear.
+        """Joint paths (on ``s_grid``) of the profiles that start at ``start_q`` (4,) and keep the joints within
+        limits and the arm clear.
 
-        The arm is checked with the arm-clearance margin at tip steps of that
+        The joint paths come from the closed-form IK with each profile, or with ``joint_q`` (m, 4) from that
+        joint polyline (:func:`~motionlib.planning.joint_to_tip.configurations_along`). The arm is checked
+        with the arm-clearance margin at tip steps of that
         margin; the chosen trajectory is verified exactly later. With the rotator (``q5_start``
         given) each usable path gets its rotator profile (the first of
         :data:`~motionlib.planning.rotator.ROTATOR_SHAPES` whose log keeps the clearance), stored
@@ -985,10 +1123,16 @@ class Planner:
         usable: dict[str, np.ndarray] = {}
         rejected: dict[str, str] = {}
         for name, profile in profiles.items():
-            q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, q1)
-            q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, q1)
+            if joint_q is None:
+                q_grid, ok = joint_path(self.crane, p_grid, profile, s_grid, float(start_q[0]))
+                q_chk, ok_chk = joint_path(self.crane, p_check, profile, s_check, float(start_q[0]))
+            else:
+                q_grid, q_chk = (configurations_along(self.crane, spline, joint_q, s) for s in (s_grid, s_check))
+                ok, ok_chk = self.crane.within_limits(q_grid), self.crane.within_limits(q_chk)
             if not (ok.all() and ok_chk.all()):
                 rejected[name] = "leaves the joint limits or the reachable set"
+            elif not np.allclose(q_grid[0], start_q, rtol=0.0, atol=START_Q_TOL):
+                rejected[name] = OFF_BRANCH_REASON
             elif q5_start is not None and rotators is not None:
                 self._screen_rotator(name, q_grid, q_chk, spline.length, s_grid, s_check, q5_start, usable, rejected,
                                      rotators)
@@ -1011,8 +1155,10 @@ class Planner:
         rejected: dict[str, str],
         rotators: dict[str, TelescopeProfile],
     ) -> None:
-        """The first rotator shape whose log (at its actual yaw) and arm keep the clearance (:meth:`_screen`)."""
+        """The first rotator shape whose arm keeps ``arm_clearance_m`` and whose grapple and log, at the log's
+        actual yaw, keep ``clearance_m`` (:meth:`_screen`)."""
         o = self.options
+        tips = self.crane.fk_batch(q_chk)
         try:
             q5_goal = goal_rotator(self.crane, float(q_grid[-1, 0]), q5_start, o.goal_log_yaw, float(q_grid[0, 0]))
         except InputError as exc:
@@ -1021,11 +1167,16 @@ class Planner:
         shapes = ROTATOR_SHAPES if q5_goal != q5_start else ROTATOR_SHAPES[:1]
         for rotator_shape in shapes:
             rot = rotator_profile(rotator_shape, q5_start, q5_goal, length, o.redundancy.degree)
-            if not self._arm_checker.configurations_in_collision(add_rotator(q_chk, rot, s_check), o.loaded).any():
+            q_full = add_rotator(q_chk, rot, s_check)
+            if not (
+                self._arm_checker.configurations_in_collision(q_full, o.loaded).any()
+                or self._path_checker.tips_in_collision(tips, o.loaded, self.crane.log_yaw(q_full)).any()
+            ):
                 usable[name] = add_rotator(q_grid, rot, s_grid)
                 rotators[name] = rot
                 return
-        rejected[name] = f"the arm or the turned log comes within {o.arm_clearance_m} m of an obstacle"
+        rejected[name] = (f"the arm comes within {o.arm_clearance_m} m or the turned log within {o.clearance_m} m "
+                          "of an obstacle")
 
 
 def _shaper_label(motion: ShapedMotion) -> str:

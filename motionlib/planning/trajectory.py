@@ -94,10 +94,11 @@ class TrajectoryInfo:
     seed : int
         Path-planner seed.
     profile : str
-        Telescope profile used: ``optimised``, ``constant``, ``linear`` or ``fallback-linear-to-<q4>``.
+        Telescope profile used: ``optimised``, ``constant``, ``linear``, ``fitted``, ``joint`` or
+        ``fallback-linear-to-<q4>``.
     path_source : str
-        Which path candidate won: ``tip-rrt`` (OMPL in the tip space) or ``joint-<line|planner>-q4=<goal telescope>``
-        (a joint-space path in the product's shape).
+        Which path candidate won: ``tip-rrt`` (OMPL in the tip space) or
+        ``joint-<line|planner>-q4=<goal telescope>[-q1=<goal slew>]`` (a joint-space path in the product's shape).
     baseline_constant_s, baseline_linear_s : float
         Durations (s) of the tip-space path with a constant / linearly interpolated telescope; NaN if infeasible.
     baseline_jointspace_s : float
@@ -296,6 +297,8 @@ PATH_ON_SPLINE_TOL_M = 1e-3
 #: Largest distance (m) of the joint samples' first and last tip from the path's ends (the planner's: < 1e-12 m;
 #: a path given to :meth:`~motionlib.planning.planner.Planner.plan_along` starts where its start configuration is).
 PATH_ENDS_TOL_M = 0.01
+#: Largest difference (rad, m) of the first joint sample from ``start_q``: the planner's are equal to rounding.
+START_Q_TOL = 1e-6
 
 #: Longest trajectory read (samples): 10^7 samples at 200 Hz are 14 hours of motion.
 MAX_SAMPLES = 10_000_000
@@ -428,7 +431,7 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
     if not jump <= PATH_ON_SPLINE_TOL_M:
         fail(f"path/spline is not continuous (a jump of {jump:.3g} m, expected <= {PATH_ON_SPLINE_TOL_M:g} m)")
     start = np.asarray(traj.info.start_q, dtype=np.float64)
-    if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=1e-6):
+    if start.shape != (4,) or not np.allclose(traj.q[0], start, rtol=0.0, atol=START_Q_TOL):
         fail(f"q[0] {rounded(traj.q[0])} differs from start_q {rounded(start)}")
     if crane is not None:
         from ..model.limits import limits_for, verify_samples  # imports TOPPRA: not at the top (select starts fast)

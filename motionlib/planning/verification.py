@@ -8,7 +8,9 @@ joint-linear interpolations wherever consecutive samples move the tip more than
 ``tip_spacing_m``. With the grapple rotator (5-joint samples) the checks use the log's actual
 yaw ``q1 + q5`` and the spacing counts the log end's motion from the turn too. Given a swing
 tolerance, the grapple pendulum (:mod:`motionlib.planning.swing`) is simulated along the samples and
-a residual swing above it is a problem too.
+a residual swing above it is a problem too. Given the query's start configuration and goal point, the
+first sample must be the start (:data:`~motionlib.planning.trajectory.START_Q_TOL`, the plan reader's
+tolerance) and the last sample's tip the goal (:data:`GOAL_TOL_M`).
 """
 
 from __future__ import annotations
@@ -25,29 +27,34 @@ from ..model.limits import Limit, PumpFlowLimit, verify_samples
 from ..model.scene import Scene
 from .swing import Pendulum, predict_swing
 from .timing import TimingResult, TimingStatus, time_scale
+from .trajectory import START_Q_TOL
 
 #: Relative tolerance of the dense limit check: a sample may use up to 1.01 x a limit.
 LIMIT_TOLERANCE = 0.01
+#: Largest distance (m) of the last sample's tip from the goal point (the planner's paths end there to rounding).
+GOAL_TOL_M = 1e-3
 
 
 @dataclass(frozen=True)
 class VerificationReport:
-    """Problems found by :meth:`Verifier.verify`: one line each, limits, collisions and swing apart."""
+    """Problems found by :meth:`Verifier.verify`: one line each, limits, collisions, swing and ends apart."""
 
     limits: list[str]
     collisions: list[str]
     swing: list[str] = field(default_factory=list)
     #: Largest ratio of a sample to a limit among the violations (1.0 when no limit is violated).
     limit_ratio: float = 1.0
+    #: The first sample is not the start configuration, or the last sample's tip is not at the goal.
+    ends: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        return not (self.limits or self.collisions or self.swing)
+        return not (self.limits or self.collisions or self.swing or self.ends)
 
     @property
     def problems(self) -> list[str]:
-        """Collisions first, then limit violations, then the residual swing."""
-        return self.collisions + self.limits + self.swing
+        """The ends first, then collisions, limit violations and the residual swing."""
+        return self.ends + self.collisions + self.limits + self.swing
 
 
 class Verifier:
@@ -78,11 +85,22 @@ class Verifier:
         self._yaw_lever = m.log_length / 2 + m.log_diameter / 2 if loaded else m.grapple_radius
 
     def verify(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray,
-               swing_tolerance_rad: float | None = None) -> VerificationReport:
+               swing_tolerance_rad: float | None = None, start_q: np.ndarray | None = None,
+               goal_p: np.ndarray | None = None) -> VerificationReport:
         """Dense re-check of samples ``t`` (N,), ``q``, ``qd``, ``qdd`` (N, 4) (s, rad or m and derivatives).
 
-        With ``swing_tolerance_rad``, the predicted residual swing at the end must be within it too.
+        With ``swing_tolerance_rad``, the predicted residual swing at the end must be within it too; with
+        ``start_q`` (4,) or (5,) (rad, m), ``q[0]`` must equal it within ``START_Q_TOL``; with ``goal_p`` (3,) (m),
+        the tip of ``q[-1]`` must be within ``GOAL_TOL_M`` of it.
         """
+        ends = []
+        if start_q is not None and not np.allclose(q[0], start_q, rtol=0.0, atol=START_Q_TOL):
+            ends.append(f"the first sample {np.round(q[0], 6).tolist()} is not the start configuration "
+                        f"{np.round(start_q, 6).tolist()}")
+        if goal_p is not None:
+            miss = float(np.linalg.norm(self.crane.fk(q[-1, :4]) - goal_p))
+            if not miss <= GOAL_TOL_M:
+                ends.append(f"the last sample's tip is {miss:.3g} m from the goal (tolerance {GOAL_TOL_M} m)")
         violations = verify_samples(t, q, qd, qdd, self.limits, tol=LIMIT_TOLERANCE)
         limits = [str(v) for v in violations]
         q_check = self.densify(q)
@@ -97,7 +115,7 @@ class Verifier:
             residual = predict_swing(self.crane, t, q, qd, self.pendulum, swing_tolerance_rad).residual_rad
             if residual > swing_tolerance_rad:
                 swing.append(f"residual swing {residual:.4f} rad above the tolerance {swing_tolerance_rad} rad")
-        return VerificationReport(limits, collisions, swing, max((v.ratio for v in violations), default=1.0))
+        return VerificationReport(limits, collisions, swing, max((v.ratio for v in violations), default=1.0), ends)
 
     def densify(self, q: np.ndarray) -> np.ndarray:
         """``q`` (N, 4) with joint-linear points inserted so that the tip moves at most ``tip_spacing_m`` per step.
@@ -160,12 +178,15 @@ def time_and_verify(
     verifier: Verifier,
     dt: float,
     first: TimingResult | None = None,
+    start_q: np.ndarray | None = None,
+    goal_p: np.ndarray | None = None,
 ) -> tuple[TimingResult, VerificationReport | None, int]:
     """Time a joint path with TOPPRA and verify it densely, re-timing under tighter limits when needed.
 
     TOPPRA enforces its constraints at grid points only; if the samples between them overshoot a
     limit by more than the tolerance, the path is re-timed with the next attempt's limits (a
-    safety factor) and grid size. Collisions end the attempts (re-timing does not move the path).
+    safety factor) and grid size. Collisions and wrong ends end the attempts (re-timing does not move
+    the path).
 
     Parameters
     ----------
@@ -182,6 +203,8 @@ def time_and_verify(
         Sample period (s).
     first : TimingResult, optional
         The first attempt's timing when the caller already has it.
+    start_q, goal_p : ndarray, optional
+        The query's start configuration and goal point, checked by :meth:`Verifier.verify`.
 
     Returns
     -------
@@ -200,7 +223,7 @@ def time_and_verify(
         timing = first if (k == 0 and first is not None) else time_scale(s, q, limits, dt=dt, min_gridpoints=grid)
         if not timing.ok:
             return timing, None, k
-        report = verifier.verify(timing.t, timing.q, timing.qd, timing.qdd)
-        if report.ok or report.collisions:
+        report = verifier.verify(timing.t, timing.q, timing.qd, timing.qdd, start_q=start_q, goal_p=goal_p)
+        if report.ok or report.collisions or report.ends:
             return timing, report, k
     return timing, report, len(attempts) - 1

@@ -368,12 +368,18 @@ def test_batch_and_distance_agree_with_single_checks(shipped_checkers, sample_q,
 @pytest.mark.parametrize("scene_name", sorted(SHIPPED))
 @pytest.mark.parametrize("loaded", [False, True])
 def test_batched_tip_checks_agree_with_single_checks(shipped_checkers, sample_q, scene_name, loaded):
-    """tips_in_collision (bounding-box screen + fcl) == tip_in_collision, at the tips of sampled configurations."""
+    """tips_in_collision (bounding-box screen + fcl) == tip_in_collision, at the tips of sampled configurations,
+    with the log along the tips' headings and at random yaws (a grapple rotator)."""
     checker = shipped_checkers[scene_name]
     tips = checker.crane.fk_batch(sample_q(checker.crane, 1500, seed=5))
     single = np.array([checker.tip_in_collision(p, loaded) for p in tips])
     np.testing.assert_array_equal(checker.tips_in_collision(tips, loaded), single)
     assert 0.05 < single.mean() < 0.95
+    yaw = np.random.default_rng(6).uniform(-np.pi, np.pi, len(tips))
+    turned = np.array([checker.tip_in_collision(p, loaded, float(y)) for p, y in zip(tips, yaw, strict=True)])
+    np.testing.assert_array_equal(checker.tips_in_collision(tips, loaded, yaw), turned)
+    if loaded:  # the turned log changes some answers
+        assert (turned != single).any()
 
 
 def _brute_force_min_distance(crane: Crane, scene: Scene, parts) -> float:
