@@ -148,6 +148,10 @@ OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the sta
                      "past straight): only joint paths start there")
 #: Telescope values across the stroke of the goal configurations of the joint-space searches (on every slew branch).
 GOAL_TELESCOPE_SAMPLES = 12
+#: The goal telescopes keep this fraction of the stroke from its ends: a motion ends where the controller's
+#: position-limit braking (``ControllerParams.limit_margin_frac``, 2 % of the range) does not hold the joint back (a
+#: forwarder plan ending at q4 = 0.013 m stopped 3.4 cm short of its goal, the telescope braked at 0.044 m).
+GOAL_STROKE_MARGIN = 0.03
 #: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
 #: fails are replaced by the next).
 JOINT_SEARCHES_PER_GOAL = 2
@@ -1006,6 +1010,8 @@ class Planner:
         """
         crane, o = self.crane, self.options
         q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
+        end_margin = GOAL_STROKE_MARGIN * (crane.q_max[3] - crane.q_min[3])
+        q4_lo, q4_hi = max(q4_lo, crane.q_min[3] + end_margin), min(q4_hi, crane.q_max[3] - end_margin)
         q4 = np.linspace(q4_lo, q4_hi, GOAL_TELESCOPE_SAMPLES)
         best = best_goal_telescope(crane, self.limits, start_q, goal_p)
         if np.isfinite(best):

@@ -91,9 +91,9 @@ def _check_shared_control(text: str, nb: nbformat.NotebookNode, tmp_path: Path) 
         for m in re.finditer(rf"^(M[456])\s+{FLOAT}\s+{FLOAT}\s+", text, flags=re.MULTILINE)
     }
     assert set(table) == {"M4", "M5", "M6"}
-    # the text: M4 (manual) is the slowest; the automated motion on the hydraulic plant rings more
+    # the text: M4 (manual) is the slowest and the jerkiest (the automated motion is smoother than the novice)
     assert table["M4"][0] > max(table["M5"][0], table["M6"][0])
-    assert table["M4"][1] < min(table["M5"][1], table["M6"][1])
+    assert table["M4"][1] > max(table["M5"][1], table["M6"][1])
     m = _find(
         rf"around the handover: peak acceleration {FLOAT} m/s² in M5, {FLOAT} m/s² in M6; "
         rf"peak swing {FLOAT} deg in M5, {FLOAT} deg in M6",
