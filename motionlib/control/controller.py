@@ -570,8 +570,9 @@ class SharedController:
                 raise RuntimeError("automation active without a motion source")
             cs[S_S_P], cs[S_DEV] = motion.s_p, motion.deviation_m
             deviation, dist_end = motion.deviation_m, motion.dist_end_m
-            if isinstance(motion, PathTrackerSource):  # damp the swing the plan did not foresee
-                swing_ref = motion.tracker.swing_reference_m
+            if isinstance(motion, PathTrackerSource):  # damp the swing the plan did not foresee (its share c_a)
+                rx, ry = motion.tracker.swing_reference_m
+                swing_ref = (cs[S_C_A] * rx, cs[S_C_A] * ry)
             if motion.arrived(ctx):
                 self.state[S_AUTO] = 0.0
                 self.events.append(motion_event(EV_ARRIVAL, ctx.t, motion.dist_end_m))

@@ -61,8 +61,9 @@ shifted by the actuators' lag (measured against ``"path"`` in docs/runtime.md, "
 The tracker also carries the grapple's *planned* swing (its horizontal offset from the tip,
 ``swing_reference_m``: the linearised pendulum driven by the planned tip motion,
 :func:`motionlib.planning.swing.swing_response`) at ``t_ref``; the controller's swing damping acts on
-the measured offset minus it while the motion runs, so it damps only the swing the plan did not
-foresee instead of fighting the swing a shaped plan uses to arrive still.
+the measured offset minus ``c_a`` times it while the motion runs (``c_a`` the automation's share in shared
+control), so it damps only the swing the plan did not foresee, or will no longer take back, instead of
+fighting the swing a shaped plan uses to arrive still.
 
 For the redundancy (001 eq. 7) the tracker also gives a joint-velocity reference for the
 null-space term: ``z = v dq_plan/ds(s_p) + k_q (q_plan(s_p) - q)``, the planned joint motion

@@ -511,8 +511,8 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
         w = scratch
         event = command_law(
             ctl.consts, cs, ctl.mixer_consts, ctl.mixer_state, jac, q, qd,
-            rx - ctl.tracker_state[_TR_R] if w[W_AUTO] != 0.0 else rx,
-            ry - ctl.tracker_state[_TR_R + 1] if w[W_AUTO] != 0.0 else ry, w[W_AUTO] != 0.0, w[W_SPEED_O],
+            rx - cs[S_C_A] * ctl.tracker_state[_TR_R] if w[W_AUTO] != 0.0 else rx,
+            ry - cs[S_C_A] * ctl.tracker_state[_TR_R + 1] if w[W_AUTO] != 0.0 else ry, w[W_AUTO] != 0.0, w[W_SPEED_O],
             (w[W_QO], w[W_QO + 1], w[W_QO + 2], w[W_QO + 3]), w[W_HAS_QO] != 0.0, (w[W_PA], w[W_PA + 1], w[W_PA + 2]),
             (w[W_ZA], w[W_ZA + 1], w[W_ZA + 2], w[W_ZA + 3]), w[W_HAS_ZA] != 0.0, w[W_DEV], w[W_DIST_END],
             (w[W_PG], w[W_PG + 1], w[W_PG + 2]), w[W_C_O], 0,
