@@ -18,6 +18,7 @@ from ..checks import check_params, check_vector, param
 from ..errors import InputError
 from ..model.crane_model import GRAVITY_M_S2  # noqa: F401 (re-exported: defined with the crane's pendulum)
 from ..model.fast_kinematics import Vec3, Vec4
+from ..model.limits import BRAKING_MARGIN_FRAC
 
 _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
@@ -267,7 +268,7 @@ class ControllerParams:
     operator_weight_lower: float = param(0.1, gt=0.0)
     operator_activity_axis: float = param(0.2, gt=0.0)
     centering_gain_per_s: float = param(0.0, ge=0.0)
-    limit_margin_frac: float = param(0.02, ge=0.0)
+    limit_margin_frac: float = param(BRAKING_MARGIN_FRAC, ge=0.0)
     brake_decel_frac: float = param(0.5, gt=0.0, le=1.0)
     lag_s: float = param(0.15, ge=0.0)
     command_ramp: bool = True

@@ -316,6 +316,12 @@ def path_speed_constraint_type() -> type[tc.LinearConstraint]:
     return PathSpeedConstraint
 
 
+#: Fraction of each joint's range before a position limit at which the controller brakes the joint to a stop
+#: (``ControllerParams.limit_margin_frac``); planned motions end outside it (``planning.verification``), or the
+#: executed motion would stop short of its goal. Assumption.
+BRAKING_MARGIN_FRAC = 0.02
+
+
 def limits_for(crane: Crane, scale: float = 1.0, with_rotator: bool = False) -> list[Limit]:
     """All limits of a crane.
 

@@ -79,7 +79,7 @@ from ..checks import check_vector
 from ..errors import InputError, PlanningError, PlanningTimeout, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import Limit, limits_for
+from ..model.limits import BRAKING_MARGIN_FRAC, Limit, limits_for
 from ..model.scene import Scene
 from .joint_to_tip import configurations_along, tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
@@ -151,7 +151,7 @@ GOAL_TELESCOPE_SAMPLES = 12
 #: The goal telescopes keep this fraction of the stroke from its ends: a motion ends where the controller's
 #: position-limit braking (``ControllerParams.limit_margin_frac``, 2 % of the range) does not hold the joint back (a
 #: forwarder plan ending at q4 = 0.013 m stopped 3.4 cm short of its goal, the telescope braked at 0.044 m).
-GOAL_STROKE_MARGIN = 0.03
+GOAL_STROKE_MARGIN = 1.5 * BRAKING_MARGIN_FRAC
 #: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
 #: fails are replaced by the next).
 JOINT_SEARCHES_PER_GOAL = 2

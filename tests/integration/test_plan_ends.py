@@ -121,3 +121,21 @@ def test_every_plan_reported_ok_starts_at_the_start_ends_at_the_goal_and_round_t
         return
     assert res.status is PlanStatus.OK, res.reason
     _assert_round_trip(crane, site, res, start, goal_p, tmp_path / "plan.h5")
+
+
+def test_a_goal_within_the_controllers_braking_margin_is_not_planned():
+    """The lab's log-loading row whose goal needs the slew 0.096 rad from its limit (the controller brakes
+    0.112 rad before it, ControllerParams.limit_margin_frac): planned as ok before, it stopped 3.7 cm short in
+    execution and never arrived. Now the verification refuses it and names the joint; a goal further in plans,
+    and its last sample keeps the margin (reference: the crane file's limits)."""
+    from motionlib.model.limits import BRAKING_MARGIN_FRAC
+
+    crane = Crane.load("lab")
+    scene = Scene.load(Path(__file__).resolve().parents[2] / "obstacles" / "log-loading.yaml", crane=crane)
+    start = np.array([0.0, 0.5235, -1.4434, 0.4])
+    refused = Planner(crane, scene, PlanOptions(seed=2410868089)).plan(start, np.array([-2.35, 1.1, 1.1]))
+    assert refused.status is PlanStatus.VERIFICATION_FAILED and "braking margin" in refused.reason
+    ok = Planner(crane, scene, PlanOptions(seed=1)).plan(start, np.array([-2.2, 1.35, 1.1])).raise_for_status()
+    margin = BRAKING_MARGIN_FRAC * (crane.q_max - crane.q_min)
+    q_end = ok.trajectory.q[-1, :4]
+    assert np.all(q_end >= crane.q_min + margin) and np.all(q_end <= crane.q_max - margin)
