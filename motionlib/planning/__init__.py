@@ -30,6 +30,9 @@ time_law
 swing
     The grapple's swing predicted from a planned tip motion (linearised damped pendulum), its
     residual amplitude and the time to settled.
+settled_law
+    The minimum-time law along a timed path with the grapple pendulum in the problem (IPOPT): still at the
+    end, robust to the rod length, a bounded swing on the way.
 shaping
     Swing shaping of a motion's time law (ZV / ZVD input shaping, fitted to the motion, jerk-limited):
     the shortest candidate whose predicted residual swing is within tolerance and that verifies.

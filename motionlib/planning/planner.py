@@ -40,10 +40,12 @@ result with a status):
    under a safety factor on a denser grid (TIMING_ATTEMPTS); the first sample must be the start
    configuration and the last sample's tip the goal. The stage ``candidates`` records
    which source won (also ``TrajectoryInfo.path_source``).
-5. ``swing`` (:mod:`motionlib.planning.shaping`, ``PlanOptions.swing_shaping``): the winner's time law is
-   shaped so that the grapple's predicted residual swing (:mod:`motionlib.planning.swing`) is within
-   ``swing_tolerance_rad`` at the end, with a jerk-limiting box; candidates shortest first, the first that
-   verifies densely again (limits, pump, collisions, the residual swing) is stored. Every plan reports its
+5. ``swing`` (``PlanOptions.swing_shaping``): the winner's time law is re-timed so that the grapple's
+   predicted residual swing (:mod:`motionlib.planning.swing`) is within ``swing_tolerance_rad`` at the end:
+   first the minimum-time law with the pendulum in the problem (:mod:`motionlib.planning.settled_law`),
+   then, where it fails, input shapers (:mod:`motionlib.planning.shaping`), shortest first, each with a
+   jerk-limiting box; the first that verifies densely again (limits, pump, collisions, the residual swing,
+   the start, the goal outside the controller's braking margin) is stored. Every plan reports its
    predicted residual swing, time to settled and total jerk (000 eq. 6) in :class:`TrajectoryInfo`.
 
 Grapple rotator (cranes with one, :mod:`motionlib.planning.rotator`): every candidate's joint path
