@@ -10,7 +10,8 @@ problem with the pendulum in it, on TOPPRA's grid ``s_0 < ... < s_N`` of the tim
     subject to v_0 = v_N = 0 (rest to rest), 0 <= v_i^2 <= x_max(s_i),
                lo <= F_j (a_j u_i + b_j v_j^2 + c_j) <= g_j  for j = i, i + 1,  u_i = (v_{i+1}^2 - v_i^2) / (2 ds_i),
                z_{i+1} = Phi_i(z_i, V_i, V_{i+1}),  z_0 = 0,
-               |(theta_N, (theta'_N + c theta_N / 2) / omega_d)| <= margin * tolerance,
+               |(theta_N, (theta'_N + c theta_N / 2) / omega_d)| <= margin * tolerance  for each rod length
+                   L (1 + dl), dl in ROBUST_LENGTHS (each model its own states z),
                |(theta_x, theta_y)_i| <= peak (optional),
 
 with ``J = 1/2 int s_ddd^2 dt`` the path's total jerk (:data:`JERK_WEIGHT`).
@@ -181,7 +182,8 @@ def _pendulum_step(pendulum: Pendulum) -> ca.Function:
 
 def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pendulum, tolerance_rad: float,
                 peak_rad: float | None = None, max_iter: int = MAX_ITER) -> SettledLaw:
-    """The minimum-time law along ``law``'s path whose residual swing is at most ``SWING_MARGIN * tolerance_rad``.
+    """The minimum-time law along ``law``'s path whose residual swing is at most ``SWING_MARGIN * tolerance_rad``
+    for every rod length of :data:`ROBUST_LENGTHS` (module docstring).
 
     Parameters
     ----------
