@@ -1025,6 +1025,10 @@ class Planner:
         solved = [crane.ik_batch(np.tile(goal_p, (len(q4), 1)), q4, q1_ref=b) for b in branches]
         qs = np.concatenate([q[ok] for q, ok in solved]) if solved else np.zeros((0, 4))
         if len(qs):
+            margin = BRAKING_MARGIN_FRAC * (crane.q_max - crane.q_min)  # where the controller would stop a joint
+            keep = np.all((qs >= crane.q_min + margin) & (qs <= crane.q_max - margin), axis=1)
+            qs = qs[keep]
+        if len(qs):
             qs = qs[self._valid_configs(qs)]
         bounds = [configuration_bound_s(start_q, q, self.limits, 0.0) for q in qs]
         spacing = (q4_hi - q4_lo) / (2 * o.goal_telescopes)
