@@ -41,14 +41,19 @@ def _assert_valid_goals(crane: Crane, site: Scene, options: PlanOptions, goals: 
 
 
 def test_goals_cover_the_stroke_and_both_slew_branches(crane, site):
-    """A goal behind the cab at heading 3.10 rad: slews 3.10 and -3.18 rad are both within +-3.3 rad."""
+    """A goal behind the cab at heading 3.14 rad: slews 3.14 and -3.14 rad are both within +-3.3 rad and outside
+    the controller's braking margin (2 % of the range, 0.132 rad). At heading 3.10 rad the branch -3.18 rad lies
+    inside that margin (the controller would stop the slew short of it) and is dropped."""
     options = PlanOptions(seed=0)
     planner = Planner(crane, site, options)
-    start, goal = site.start("bunk-center"), np.array([-5.0, 0.2, 5.0])
+    start, goal = site.start("bunk-center"), np.array([-5.0, 0.01, 5.0])
     goals, bounds, _, n_spread = planner._goal_configurations(start, goal)
     _assert_valid_goals(crane, site, options, goals, goal)
     heading = math.atan2(goal[1], goal[0])
     assert {round(float(q1), 6) for q1 in goals[:, 0]} == {round(heading, 6), round(heading - 2 * math.pi, 6)}
+    near_limit = np.array([-5.0, 0.2, 5.0])
+    kept = planner._goal_configurations(start, near_limit)[0]
+    assert {round(float(q1), 6) for q1 in kept[:, 0]} == {round(math.atan2(0.2, -5.0), 6)}
     assert np.ptp(goals[:, 3]) > 0.5 * (crane.q_max[3] - crane.q_min[3])  # spread over the stroke
     assert bounds[:n_spread] == sorted(bounds[:n_spread]) and bounds[n_spread:] == sorted(bounds[n_spread:])
 
