@@ -525,7 +525,7 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
     dist_la = math.sqrt(lx * lx + ly * ly + lz * lz)
 
     # the plan's clock: when the plan was where the tip is ("path"), or its own clock, at most lead_s ahead
-    k, g = _interval(s_p * inv_h, last)
+    # (k, g: the nearest point's interval, as above)
     t_tip = table[k, _T] + g * (table[k + 1, _T] - table[k, _T])
     timed = consts[12] != 0.0
     running = False

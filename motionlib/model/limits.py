@@ -322,6 +322,12 @@ def path_speed_constraint_type() -> type[tc.LinearConstraint]:
 BRAKING_MARGIN_FRAC = 0.02
 
 
+def braking_margin(crane: Crane, factor: float = 1.0) -> np.ndarray:
+    """Per joint, ``factor`` times the distance (4,) (rad, m) before a position limit where the controller stops
+    the joint: :data:`BRAKING_MARGIN_FRAC` of its range."""
+    return factor * BRAKING_MARGIN_FRAC * (crane.q_max - crane.q_min)
+
+
 def limits_for(crane: Crane, scale: float = 1.0, with_rotator: bool = False) -> list[Limit]:
     """All limits of a crane.
 

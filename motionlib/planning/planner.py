@@ -81,7 +81,7 @@ from ..checks import check_vector
 from ..errors import InputError, PlanningError, PlanningTimeout, UnreachableError
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import BRAKING_MARGIN_FRAC, Limit, limits_for
+from ..model.limits import Limit, braking_margin, limits_for
 from ..model.scene import Scene
 from .joint_to_tip import configurations_along, tip_path_from_joint_path
 from .jointspace import JointPathOptions, jointspace_baseline, plan_joint_path
@@ -150,10 +150,6 @@ OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the sta
                      "past straight): only joint paths start there")
 #: Telescope values across the stroke of the goal configurations of the joint-space searches (on every slew branch).
 GOAL_TELESCOPE_SAMPLES = 12
-#: The goal telescopes keep this fraction of the stroke from its ends: a motion ends where the controller's
-#: position-limit braking (``ControllerParams.limit_margin_frac``, 2 % of the range) does not hold the joint back (a
-#: forwarder plan ending at q4 = 0.013 m stopped 3.4 cm short of its goal, the telescope braked at 0.044 m).
-GOAL_STROKE_MARGIN = 1.5 * BRAKING_MARGIN_FRAC
 #: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
 #: fails are replaced by the next).
 JOINT_SEARCHES_PER_GOAL = 2
@@ -1011,9 +1007,7 @@ class Planner:
             How many of them are spread over the stroke (come before the others).
         """
         crane, o = self.crane, self.options
-        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)
-        end_margin = GOAL_STROKE_MARGIN * (crane.q_max[3] - crane.q_min[3])
-        q4_lo, q4_hi = max(q4_lo, crane.q_min[3] + end_margin), min(q4_hi, crane.q_max[3] - end_margin)
+        q4_lo, q4_hi = telescope_bounds(crane, o.redundancy.telescope_margin_m)  # outside the braking margin
         q4 = np.linspace(q4_lo, q4_hi, GOAL_TELESCOPE_SAMPLES)
         best = best_goal_telescope(crane, self.limits, start_q, goal_p)
         if np.isfinite(best):
@@ -1025,7 +1019,7 @@ class Planner:
         solved = [crane.ik_batch(np.tile(goal_p, (len(q4), 1)), q4, q1_ref=b) for b in branches]
         qs = np.concatenate([q[ok] for q, ok in solved]) if solved else np.zeros((0, 4))
         if len(qs):
-            margin = BRAKING_MARGIN_FRAC * (crane.q_max - crane.q_min)  # where the controller would stop a joint
+            margin = braking_margin(crane)  # where the controller would stop a joint
             keep = np.all((qs >= crane.q_min + margin) & (qs <= crane.q_max - margin), axis=1)
             qs = qs[keep]
         if len(qs):

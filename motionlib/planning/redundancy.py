@@ -38,7 +38,7 @@ from scipy.interpolate import BPoly
 from ..checks import check_scalar
 from ..model.crane_model import CraneModel
 from ..model.kinematics import Crane
-from ..model.limits import BRAKING_MARGIN_FRAC, limits_for
+from ..model.limits import braking_margin, limits_for
 from .phase_plane import phase_plane_time
 
 # CasADi counterparts of the numpy functions used by Crane.planar_ik/planar_fk.
@@ -240,9 +240,9 @@ class _Nlp:
 
 def telescope_bounds(crane: Crane, margin_m: float, q4_start: float | None = None) -> tuple[float, float]:
     """The telescope range (m) a planned motion keeps: ``margin_m`` inside the stroke, and at least 1.5 times
-    the controller's braking margin (:data:`~motionlib.model.limits.BRAKING_MARGIN_FRAC` of the stroke, where it
-    stops the joint), widened to the start."""
-    margin_m = max(margin_m, 1.5 * BRAKING_MARGIN_FRAC * float(crane.q_max[3] - crane.q_min[3]))
+    the controller's braking margin (:func:`~motionlib.model.limits.braking_margin`, where it stops the joint),
+    widened to the start."""
+    margin_m = max(margin_m, float(braking_margin(crane, 1.5)[3]))
     lo, hi = float(crane.q_min[3]) + margin_m, float(crane.q_max[3]) - margin_m
     if q4_start is not None:
         lo, hi = min(lo, q4_start), max(hi, q4_start)

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..model.collision import CollisionChecker
 from ..model.kinematics import Crane
-from ..model.limits import BRAKING_MARGIN_FRAC, Limit, PumpFlowLimit, verify_samples
+from ..model.limits import Limit, PumpFlowLimit, braking_margin, verify_samples
 from ..model.scene import Scene
 from .swing import Pendulum, predict_swing
 from .timing import TimingResult, TimingStatus, time_scale
@@ -233,11 +233,11 @@ def time_and_verify(
 def braking_margin_problems(crane: Crane, q_end: np.ndarray) -> list[str]:
     """Why a motion ending at ``q_end`` (4,) (rad, m) could not be executed to its end, one line per joint.
 
-    The controller brakes every joint ``BRAKING_MARGIN_FRAC`` of its range before a position limit
+    The controller brakes every joint :func:`~motionlib.model.limits.braking_margin` before a position limit
     (``ControllerParams.limit_margin_frac``), so a motion that ends closer to a limit stops short of its goal
     (a lab motion ending 0.096 rad from the slew limit stopped 3.7 cm short and never arrived).
     """
-    margin = BRAKING_MARGIN_FRAC * (crane.q_max - crane.q_min)
+    margin = braking_margin(crane)
     out = []
     for i in range(4):
         lo, hi = crane.q_min[i] + margin[i], crane.q_max[i] - margin[i]
