@@ -15,6 +15,16 @@ and compute-time ratios new / old. Every plan also reports the grapple's predict
 ``--no-swing-shaping`` plans the time-optimal motions (``PlanOptions(swing_shaping=False)``), and the
 summary gives the median ratio of the duration to the unshaped time-optimal one (stage ``swing``).
 
+``--random N --seed S`` plans N random queries per shipped scene instead (issue 23's unseen
+queries), half of them empty and half loaded: start and goal configurations drawn uniformly
+inside the joint limits less the controller's braking margin (boom and jib also less the
+planner's reach margin), each redrawn until it is a valid query by the planner's own
+definitions (the start clear of the obstacles, the goal's grapple outside the clearance and its
+arm clear at the drawn configuration), the goal being the drawn configuration's tip point. The
+seeds of the report were fixed before looking (0). Every query above 2x the pump-aware bound is
+listed with the obstacle nearest the straight joint-space line between the start and the goal
+configuration, the obstacle that forces the detour.
+
 The NLP of the redundancy stage is built once per crane (as in a library
 build); that one-off build time is reported separately and excluded from the
 per-query times.
@@ -30,8 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
+from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
-from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit
+from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit, braking_margin
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions
 from motionlib.planning.timing import time_scale
@@ -87,6 +98,60 @@ def log_loading_queries(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarra
     ]
     out += [(f"back<-pickup-a#{i}", pick_a, p, True) for i, p in enumerate(grid(scene.region("target"), 3, 1))]
     return out
+
+
+def random_queries(n: int, seed: int):
+    """``queries_fn`` of :func:`run`: ``n`` random valid queries (see the module docstring), alternately empty and loaded.
+
+    Each query also carries its goal configuration (4,) in ``GOAL_Q[name]``, for the obstacle report."""
+
+    def make(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
+        o = PlanOptions()
+        rng = np.random.default_rng(seed)
+        lo = crane.q_min + braking_margin(crane)
+        hi = crane.q_max - braking_margin(crane)
+        lo[1:3] = np.maximum(lo[1:3], crane.q_min[1:3] + o.reach_margin_rad)
+        hi[1:3] = np.minimum(hi[1:3], crane.q_max[1:3] - o.reach_margin_rad)
+        exact = CollisionChecker(crane, scene)
+        arm = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
+        grapple = CollisionChecker(crane, scene, margin=o.clearance_m)
+        out = []
+        for i in range(n):
+            loaded = bool(i % 2)
+            while True:
+                start = rng.uniform(lo, hi)
+                if not exact.in_collision(start, loaded) and crane.reachable(crane.fk(start), o.reach_margin_rad):
+                    break
+            while True:
+                goal_q = rng.uniform(lo, hi)
+                goal = crane.fk(goal_q)
+                if (
+                    not arm.in_collision(goal_q, loaded)
+                    and not grapple.tip_in_collision(goal, loaded)
+                    and crane.reachable(goal, o.reach_margin_rad)
+                ):
+                    break
+            name = f"random#{i}{'-loaded' if loaded else ''}"
+            GOAL_Q[scene.name, name] = goal_q
+            out.append((name, start, goal, loaded))
+        return out
+
+    return make
+
+
+#: Goal configuration (4,) of each random query, keyed by (scene name, query name).
+GOAL_Q: dict[tuple[str, str], np.ndarray] = {}
+
+
+def nearest_obstacle(crane: Crane, scene: Scene, start: np.ndarray, goal_q: np.ndarray, loaded: bool) -> str:
+    """The obstacle (or the ground) nearest the straight joint-space line from ``start`` to ``goal_q``, with the
+    least distance (m; negative: penetration depth where fcl reports one)."""
+    checker = CollisionChecker(crane, scene)
+    best = min(
+        (checker.distance(start + a * (goal_q - start), loaded) for a in np.linspace(0.0, 1.0, 41)),
+        key=lambda d: d.distance,
+    )
+    return f"{best.obstacle} ({best.crane_part}, {best.distance:.2f} m)"
 
 
 def slew_bound_s(crane: Crane, traj) -> float:
@@ -149,6 +214,8 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
                 unshaped_settled_s=res.stages["swing"].details["unshaped_time_to_settled_s"],
                 shaping_ratio=d / (d - res.stages["swing"].details.get("added_s", 0.0)),
             )
+            if row["lb_ratio"] > 2.0 and (scene.name, name) in GOAL_Q:
+                row["obstacle"] = nearest_obstacle(crane, scene, start[:4], GOAL_Q[scene.name, name], loaded)
         if compare_old:
             t0 = time.perf_counter()
             old = planners["old", loaded].plan(start, goal)
@@ -166,10 +233,15 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--compare-old", action="store_true", help="also plan with the tip-space path alone")
     ap.add_argument("--no-swing-shaping", action="store_true", help="time-optimal plans (no swing shaping)")
+    ap.add_argument("--random", type=int, metavar="N", help="N random queries per shipped scene (seed: --seed)")
     args = ap.parse_args()
     shaping = not args.no_swing_shaping
-    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_queries, args.seed, args.compare_old, shaping)
-    rows += run("obstacles/log-loading.yaml", "lab", log_loading_queries, args.seed, args.compare_old, shaping)
+    if args.random:
+        forwarder_fn = log_loading_fn = random_queries(args.random, args.seed)
+    else:
+        forwarder_fn, log_loading_fn = forwarder_queries, log_loading_queries
+    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_fn, args.seed, args.compare_old, shaping)
+    rows += run("obstacles/log-loading.yaml", "lab", log_loading_fn, args.seed, args.compare_old, shaping)
 
     cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s")
     ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
@@ -245,6 +317,10 @@ def main() -> None:
         ]
         if vals:
             print(f"forwarder-site {label}: median duration {statistics.median(vals):.2f} s (n={len(vals)})")
+    for r in rows:
+        if "obstacle" in r:
+            print(f"above 2x the bound: {r['scene']} {r['query']} {r['lb_ratio']:.2f}x, nearest the straight joint "
+                  f"line: {r['obstacle']}")
     stages = ", ".join(f"{k[:-2]} {statistics.median(r.get(k, 0.0) for r in rows) * 1000:.0f}" for k in cols)
     print(f"median stage times (ms): {stages}")
 

@@ -5,6 +5,10 @@ Modules, in pipeline order
 path
     Collision-free tip path with OMPL, simplified and fitted with a spline (000 section 2.3);
     :func:`~.path.solve_ompl`, the OMPL call for any dimension.
+slew_cut
+    The cut that keeps a tip path's slew within its limits (the path goes the other way round).
+start_escape
+    Leaving a start inside the searches' clearance: only contact counts in a ball around it.
 jointspace
     Joint-space paths (straight line or OMPL) to goal configurations, and the joint-space baseline.
 trajopt

@@ -62,6 +62,10 @@ branch (003 eq. 4.15, the jib folded down), which gives the other configuration 
 a start no tip-space path is searched and the joint candidates keep their own configurations (profile
 ``joint``, :func:`~motionlib.planning.joint_to_tip.configurations_along`).
 
+A start inside either clearance but not in contact (a log just lifted off a pile, a grapple on the ground)
+is left through a ball of ``PlanOptions.start_escape_m`` around its tip, where the searches and screens
+need only freedom from contact (:mod:`~motionlib.planning.start_escape`); the goal keeps the clearances.
+
 Every plan reports the pump-aware lower bound and the joint-space baseline beside the
 telescope baselines. :func:`plan` never raises for a planning failure: it returns a
 :class:`PlanResult` whose ``status`` names the failing stage and reason.
@@ -101,6 +105,7 @@ from .shaping import ShapedMotion, Shaper, restretched, shape, shaped_candidates
 from .slew_cut import slew_cut
 from .smoothness import smoothness
 from .spline import TipSpline
+from .start_escape import EscapeChecker
 from .swing import predict_swing
 from .time_law import TimeLaw
 from .timing import TimingResult, TimingStatus, time_scale
@@ -135,8 +140,10 @@ class PlanStatus(Enum):
 #: planned along the joint candidates' own configurations (before: from the IK's other configuration of its tip),
 #: and the tip-space path keeps the slew within its limits (a slew cut); the turned log is screened with the
 #: grapple's clearance; the joint-space goals span the telescope's stroke and both slew branches, collision-checked
-#: before the searches.
-PLANNER_VERSION = 6
+#: before the searches; 7: a start inside the clearance is left through an escape ball
+#: (:mod:`motionlib.planning.start_escape`), the joint-space searches' budget is 10 000 checks (was 2 000), and a
+#: joint path whose telescope optimisation fails keeps its fitted profile.
+PLANNER_VERSION = 7
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -188,6 +195,10 @@ class PlanOptions:
         Clearance the grapple (and log) keeps from the scene along the path (m).
     arm_clearance_m : float
         Clearance the crane links keep from the scene (m).
+    start_escape_m : float
+        A start inside either clearance (the grapple at a pile, the boom near a stake) is left through a ball of
+        this radius (m) around its tip point, where the searches need only freedom from contact
+        (:mod:`~motionlib.planning.start_escape`). Assumption: 0.5 m, five grapple clearances.
     reach_margin_rad : float
         Every path point must be reachable by some telescope extension with the
         boom and jib this far (rad) inside their limits, so that the path keeps
@@ -248,6 +259,7 @@ class PlanOptions:
     time_limit_s: float = 60.0
     clearance_m: float = 0.10
     arm_clearance_m: float = 0.05
+    start_escape_m: float = 0.5
     reach_margin_rad: float = 0.04
     dt_s: float = 1.0 / 200.0
     verify_tip_spacing_m: float = 0.01
@@ -349,8 +361,11 @@ class Planner:
         self.scene = scene
         self.options = options or PlanOptions()
         o = self.options
-        self._path_checker = CollisionChecker(crane, scene, margin=o.clearance_m)
-        self._arm_checker = CollisionChecker(crane, scene, margin=o.arm_clearance_m)
+        #: The searches' margin checkers (grapple, arm); a plan from a start inside them relaxes both near it.
+        self._margin_checkers = (CollisionChecker(crane, scene, margin=o.clearance_m),
+                                 CollisionChecker(crane, scene, margin=o.arm_clearance_m))
+        self._path_checker: CollisionChecker | EscapeChecker = self._margin_checkers[0]
+        self._arm_checker: CollisionChecker | EscapeChecker = self._margin_checkers[1]
         self.limits = limits_for(crane)  # the same objects time, verify and bound every candidate and baseline
         #: (limits, least TOPPRA grid size) per timing attempt, shared by candidates and the joint-space baseline
         self.timing_attempts: list[tuple[list[Limit], int]] = [
@@ -481,6 +496,12 @@ class Planner:
             return fail(
                 PlanStatus.QUERY_INVALID, f"start configuration is in collision ({d.crane_part} with {d.obstacle})"
             )
+        self._path_checker, self._arm_checker = self._margin_checkers
+        if not self._config_valid(start_q):  # inside a clearance, not in contact: leave it through the escape ball
+            self._path_checker, self._arm_checker = (
+                EscapeChecker(c, self._exact_checker, crane, crane.fk(start_q), o.start_escape_m)
+                for c in self._margin_checkers
+            )
         if not crane.reachable(goal_p):
             return fail(PlanStatus.QUERY_INVALID, f"goal unreachable: {self._goal_unreachable_reason(goal_p)}")
         for name, p in (("start", crane.fk(start_q)), ("goal", goal_p)):
@@ -490,7 +511,7 @@ class Planner:
                     f"{name} {np.round(p, 3).tolist()} is at the edge of the workspace: no telescope extension "
                     f"reaches it with the boom and jib {o.reach_margin_rad} rad inside their limits",
                 )
-        if self._path_checker.tip_in_collision(goal_p, o.loaded):
+        if self._margin_checkers[0].tip_in_collision(goal_p, o.loaded):
             return fail(
                 PlanStatus.QUERY_INVALID,
                 f"goal {goal_p.tolist()} is in collision: the grapple there is within {o.clearance_m} m of an obstacle",
@@ -1045,8 +1066,8 @@ class Planner:
         The tip-space path (``initial`` None) gets the optimised profile and the constant and
         linear baselines; a path from a joint path gets the optimised profile started from its
         fitted profile, and the fitted profile itself. When none is usable, linear fallback
-        profiles are tried. When IPOPT fails, the candidate has no usable profile (its reason
-        is kept under ``optimised``). A path whose slew, unwrapped from the start's
+        profiles are tried. When IPOPT fails (its reason kept under ``optimised``), a joint path's
+        fitted profile and then the fallbacks are still tried. A path whose slew, unwrapped from the start's
         (:meth:`~motionlib.model.kinematics.Crane.slew_along`), leaves the slew limits has none (its reason
         under ``path``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
         (m, 4), the joint polyline whose tips are the spline's waypoints (a start off the closed-form
@@ -1072,16 +1093,18 @@ class Planner:
             return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), details
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
         details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
-        if red.status is not RedundancyStatus.OK or red.profile is None:  # the candidate fails with its NLP
-            return _Candidate(spline, s_grid, {}, {}, {"optimised": red.reason}), details
-        profiles = {"optimised": red.profile}
-        if initial is None:
-            end = red.profile.control_points[-1]
-            profiles["constant"] = TelescopeProfile.constant(start_q[3], spline.length, degree)
-            profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
-        else:
+        profiles: dict[str, TelescopeProfile] = {}
+        if red.status is RedundancyStatus.OK and red.profile is not None:
+            profiles["optimised"] = red.profile
+            if initial is None:
+                end = red.profile.control_points[-1]
+                profiles["constant"] = TelescopeProfile.constant(start_q[3], spline.length, degree)
+                profiles["linear"] = TelescopeProfile.linear(start_q[3], end, spline.length, degree)
+        if initial is not None:  # a joint path's own telescope, whether or not its optimisation succeeded
             profiles["fitted"] = initial
         q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators)
+        if "optimised" not in profiles:  # the NLP failed: its reason, then the fitted and fallback profiles
+            rejected["optimised"] = red.reason
         if not q_paths:
             fallbacks = {
                 f"fallback-linear-to-{end:.2f}": TelescopeProfile.linear(start_q[3], end, spline.length, degree)
