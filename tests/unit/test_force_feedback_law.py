@@ -203,3 +203,29 @@ def test_held_stick_shifts_the_intent_by_the_feedback():
     obs.t = 1.0
     assert held.input(obs).axes == (0.4, 0.0, 0.0, 1.5)  # a scripted device fault passes unchanged
     assert held.done(obs) is script.done(obs)
+
+
+@pytest.mark.parametrize("force_n", [0.5, 8.0])
+def test_grip_force_deflects_the_released_stick_by_f_over_k(force_n):
+    """A constant grip force ``F`` on ``left_x`` through 001 eq. 6 at the stick's angle, hand at rest.
+
+    Static: ``k theta = L cos(theta) F`` (closed form solved by bisection); for a small force the grip moves
+    ``L theta = F / k_grip``, ``k_grip = k / L^2`` (N/m).
+    """
+    status, params = ControllerStatus(), StickParams()
+    held = HeldStick(ScriptedStick([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]]), status, params, PARAMS.deflection_max_rad, DT)
+    obs = Observation()
+    for n in range(400):
+        obs.t = n * DT
+        axes = held.input(obs).axes
+        status.feedback_nm = stick_torques((force_n, 0.0, 0.0, 0.0), axes, PARAMS)
+    k, length = params.stiffness_nm_rad, PARAMS.grip_length_m
+    lo, hi = 0.0, PARAMS.deflection_max_rad
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if k * mid < length * math.cos(mid) * force_n else (lo, mid)
+    theta = held.stick.theta[0]
+    assert theta == pytest.approx(lo, rel=1e-9)
+    k_grip = k / length**2
+    if force_n < 1.0:  # small deflection: the linear spring at the grip, to the cosine's theta^2 / 2 (doubled)
+        assert length * theta == pytest.approx(force_n / k_grip, rel=theta**2)
