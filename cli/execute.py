@@ -63,16 +63,22 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
               "contact loop rings is warned about.")
 @click.option("--accommodation-axes", default="xyz", show_default=True, metavar="AXES",
               help="Base axes of the accommodation (any of x, y, z).")
+@click.option("--feedback-gain", type=FiniteFloatRange(min=0.0, min_open=True, max=1.0), metavar="K",
+              help="Force feedback to the operator's stick (001 eq. 6): grip force (N) per newton of sensed contact "
+              "force (with --accommodation) and of the obstacle guard's virtual force, at most 10 N per stick; the "
+              "operator holds a spring-centred stick it acts on. Try 0.0025.")
 @click.option("--log", "log_path", type=click.Path(dir_okay=False), help="Write the 200 Hz run log (HDF5).")
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
     library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    stick_mrf, stick_crf, vision_target, vision_gains, force_bound, accommodation_axes, log_path, as_json, plot_dir,
+    stick_mrf, stick_crf, vision_target, vision_gains, force_bound, accommodation_axes, feedback_gain, log_path,
+    as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
+    from motionlib.control.force_feedback import ForceFeedbackParams
     from motionlib.errors import ContactLoopWarning
     from motionlib.sim.execute import contact_loop_check
     from motionlib.sim.plant import SimParams
@@ -87,7 +93,9 @@ def execute(
         lib = Library.open(library)
         selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
         row = int(selection.indices[0])
-        controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
+        controller = ControllerParams(
+            swing_damping=0.0 if no_swing_damping else ControllerParams.swing_damping,
+            feedback=ForceFeedbackParams(gain=feedback_gain) if feedback_gain is not None else None)
         options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                                  sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                                  stick_crf=stick_crf, vision=vision, accommodation=accommodation)
@@ -125,6 +133,8 @@ def execute(
                         "contact_hold_s"):
                 report[key] = run.loop.diagnostics[key]
             report["contact_loop_warning"] = warning
+        if feedback_gain is not None:
+            report["peak_feedback_n"] = run.loop.diagnostics["peak_feedback_n"]
         if "rotator_rad" in run.loop.diagnostics:  # a crane with a grapple rotator: where the log ended up
             report["rotator_rad"] = run.loop.diagnostics["rotator_rad"]
             report["log_yaw_end_rad"] = float(run.arrays["q"][-1][0]) + report["rotator_rad"]
@@ -189,6 +199,8 @@ def _print_report(s: dict[str, Any]) -> None:
                    f"({s['contact_hold_s']:.2f} s; 10-90 %: {s['contact_force_p10_n']:.0f}-"
                    f"{s['contact_force_p90_n']:.0f} N), {s['peak_contact_force_n']:.0f} N at most "
                    "(ground and obstacles)")
+    if "peak_feedback_n" in s:
+        click.echo(f"  stick feedback    {s['peak_feedback_n']:.2f} N at most on the grip")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")

@@ -22,6 +22,8 @@ vision
     The vision source (001 section 2.4): camera measurements to a tip rate; the camera protocol.
 accommodation
     The force-accommodation source, a damping-only impedance (001 section 2.5), and its options.
+force_feedback
+    Force feedback to the operator's hand controller: sensed and virtual forces through ``J_HC^T`` (001 eq. 6).
 payload_command
     One payload held by several cranes (001 section 3): the broadcast MRF twist and the grasp-frame
     rate (001 eq. 1).

@@ -19,6 +19,7 @@ from ..errors import InputError
 from ..model.crane_model import GRAVITY_M_S2  # noqa: F401 (re-exported: defined with the crane's pendulum)
 from ..model.fast_kinematics import Vec3, Vec4
 from ..model.limits import BRAKING_MARGIN_FRAC
+from .force_feedback import ForceFeedbackParams
 
 _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
@@ -164,6 +165,10 @@ class ControllerStatus:
         Smallest singular value of ``J W^1/2`` (resolved-rate steps only, else NaN).
     qd_cmd : tuple of 4 float
         The command returned by the step.
+    feedback_n, feedback_nm : tuple of 4 float
+        With force feedback (``ControllerParams.feedback``): the hand controller's grip force (N) and
+        joint torques (N m, 001 eq. 6) per stick axis ``(left_x, left_y, right_x, right_y)``
+        (:mod:`motionlib.control.force_feedback`); zeros without it and while stopped.
     """
 
     t: float = 0.0
@@ -177,6 +182,8 @@ class ControllerStatus:
     flags: int = 0
     sigma_min: float = math.nan
     qd_cmd: Vec4 = _ZERO4
+    feedback_n: Vec4 = _ZERO4
+    feedback_nm: Vec4 = _ZERO4
 
 
 @dataclass(frozen=True)
@@ -255,6 +262,12 @@ class ControllerParams:
         ``end_gain_per_s`` and its pull back onto the path ``lateral_gain_per_s`` are capped at the gain
         with this margin on the joint model loaded by the grapple); 3 (~10 dB) leaves room for the valve
         lag and the command ramp the model omits. Assumption. 0: no cap.
+    feedback : ForceFeedbackParams or None
+        Force feedback to the operator's hand controller (001 section 2.5, eq. 6;
+        :mod:`motionlib.control.force_feedback`): the sensed contact force and the obstacle guard's
+        virtual force, scaled and bounded, as the stick's joint torques every step. None (default):
+        off; the stick of a machine without force reflection is a plain spring-centred one, and the
+        simulated operators then command the stick directly.
     """
 
     dt_s: float = param(0.005, gt=0.0)
@@ -278,9 +291,12 @@ class ControllerParams:
     joint_natural_freq_hz: float | None = param(2.5, gt=0.0, le=100.0, optional=True)
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     position_gain_margin: float = param(3.0, ge=0.0)
+    feedback: ForceFeedbackParams | None = None
 
     def __post_init__(self) -> None:
         check_params(self)
+        if self.feedback is not None and not isinstance(self.feedback, ForceFeedbackParams):
+            raise InputError(f"feedback: expected ForceFeedbackParams or None, got {type(self.feedback).__name__}")
         if not isinstance(self.command_ramp, bool):
             raise InputError(f"command_ramp: expected true or false, got {self.command_ramp!r}")
         if self.weights is not None:

@@ -47,6 +47,12 @@ states and joystick samples. One step:
    uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
    brakes at up to ``qdd_max`` on its own. The command is always finite.
 
+6. **Force feedback** (``ControllerParams.feedback``, off by default; 001 section 2.5, eq. 6):
+   the sensed contact force (the accommodation source's force sensor) plus the obstacle guard's
+   virtual force ``-B_v (p_o - p_o')``, scaled by ``K_FR`` into a grip force per stick axis and
+   bounded, and the stick's joint torques ``tau = J_HC^T F`` (:mod:`motionlib.control.force_feedback`),
+   in :attr:`SharedController.status` (``feedback_n``, ``feedback_nm``); zeros while stopped.
+
 Steps 3-5 are the compiled command law of :mod:`motionlib.control.command` on the controller's
 arrays (:attr:`SharedController.consts`, :attr:`SharedController.state`), which the compiled
 closed loop (:mod:`motionlib.sim.fast_loop`) runs too. Flags and events are in
@@ -101,6 +107,7 @@ from .control_types import (
     Mode,
     OperatorInput,
 )
+from .force_feedback import ForceFeedback
 from .mixer import Mixer, MixerParams, ObstacleGuard
 from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
@@ -227,6 +234,8 @@ class SharedController:
         self._stale = False
         self._nonfinite = False
         self._swing = (math.nan, math.nan)  # the grapple's measured horizontal offset (m)
+        #: The hand controller's force feedback (``ControllerParams.feedback``), else None.
+        self.feedback = ForceFeedback(prm.feedback) if prm.feedback is not None else None
         #: The grapple rotator's axis of the summing junction (cranes with a rotator), else None.
         self.rotator: RotatorChannel | None = (
             RotatorChannel(crane, prm.dt_s, RotatorParams(limit_margin_frac=min(prm.limit_margin_frac, 0.49),
@@ -425,6 +434,8 @@ class SharedController:
             self._started = True
             cs[S_CMD:S_CMD + 4] = qd_meas if state_ok else _ZERO4
         cs[S_T] = t
+        if self.feedback is not None:  # no force while stopped; set by _command otherwise
+            self.status.feedback_n = self.status.feedback_nm = _ZERO4
 
         # ---- 1. operator input: stale, non-finite and out-of-range handling
         axes, abort, flags, stale = self._read_input(inputs, t)
@@ -597,6 +608,17 @@ class SharedController:
         )
         if event == EV_HANDOVER:
             self.events.append(motion_event(EV_HANDOVER, ctx.t, self.mixer.t_o))
+        if self.feedback is not None:  # step 6: the hand controller's force (001 eq. 6)
+            cut = (po[0] - po_guarded[0], po[1] - po_guarded[1], po[2] - po_guarded[2])
+            st = self.status
+            st.feedback_n, st.feedback_nm = self.feedback.step(self.joystick, ctx, self._sensed_force(), cut)
+
+    def _sensed_force(self) -> Vec3:
+        """The force sensor's last reading (N, base frame): the first connected accommodation source's, else 0."""
+        for src in self.sources:
+            if isinstance(src, AccommodationSource):
+                return src.f_env
+        return _ZERO3
 
     def _guard(self, q: Vec4, po: Vec3) -> tuple[Vec3, float]:
         """The guarded operator velocity ``c_o p_o`` (3,) (m/s) and ``c_o`` (1 without a guard)."""

@@ -55,6 +55,7 @@ class RunLog:
         self._rows: list[tuple] = []
         self._n_blocks = 0
         self._rotator: list[tuple[float, float, float]] = []
+        self._feedback: list[tuple[float, ...]] = []
 
     def __len__(self) -> int:
         return self._n_blocks + len(self._rows)
@@ -91,6 +92,14 @@ class RunLog:
         """
         self._rotator.append((q5, qd5, cmd))
 
+    def append_feedback(self, force_n: Any, torque_nm: Any) -> None:
+        """The hand controller's feedback of the step just appended: grip force (4,) (N) and joint torques (4,) (N m).
+
+        Runs with force feedback (``ControllerParams.feedback``); the log then has the ``feedback_n`` and
+        ``feedback_nm`` datasets.
+        """
+        self._feedback.append((*force_n, *torque_nm))
+
     @property
     def t_end(self) -> float:
         """Time of the last row (s); 0 when empty."""
@@ -114,7 +123,9 @@ class RunLog:
             automated motion runs); ``flags`` (N,) uint16 (:class:`~motionlib.control.controller.Flag`);
             ``authority`` (N,) int8 (:class:`~motionlib.control.controller.Authority`); ``swing_rad`` (N,);
             with a crane also ``tip_p`` (N, 3) m and ``tip_v`` (N, 3) m/s; with the grapple rotator
-            (:meth:`append_rotator` every step) ``rotator`` (N, 3): q5 (rad), its velocity and command (rad/s).
+            (:meth:`append_rotator` every step) ``rotator`` (N, 3): q5 (rad), its velocity and command (rad/s);
+            with force feedback (:meth:`append_feedback` every step) ``feedback_n`` (N, 4), the grip force (N)
+            per stick axis, and ``feedback_nm`` (N, 4), the stick's joint torques (N m, 001 eq. 6).
         """
         data = np.concatenate(
             self._blocks + [np.array(self._rows, dtype=np.float64).reshape(-1, len(COLUMNS))])
@@ -135,6 +146,9 @@ class RunLog:
             out["tip_p"], out["tip_v"] = tip_motion(crane, out["q"], out["qd"])
         if self._rotator and len(self._rotator) == len(self):
             out["rotator"] = np.array(self._rotator, dtype=np.float64)
+        if self._feedback and len(self._feedback) == len(self):
+            fb = np.array(self._feedback, dtype=np.float64)
+            out["feedback_n"], out["feedback_nm"] = fb[:, :4].copy(), fb[:, 4:].copy()
         return out
 
 
@@ -195,9 +209,11 @@ def write_runlog(path: str | Path, log: RunLog, crane: Crane, summary: dict[str,
 RUNLOG_DATASETS: dict[str, tuple[int, ...]] = {
     "t": (), "q": (4,), "qd": (4,), "qd_cmd": (4,), "c_a": (), "c_o": (), "s_p": (), "deviation_m": (),
     "flags": (), "authority": (), "swing_rad": (), "tip_p": (3,), "tip_v": (3,), "rotator": (3,),
+    "feedback_n": (4,), "feedback_nm": (4,),
 }
-#: Datasets a run log may lack: the tip's (computed from ``q``) and the grapple rotator's (cranes with one).
-_OPTIONAL_DATASETS = ("tip_p", "tip_v", "rotator")
+#: Datasets a run log may lack: the tip's (computed from ``q``), the grapple rotator's (cranes with one) and the
+#: hand controller's force feedback (runs with it).
+_OPTIONAL_DATASETS = ("tip_p", "tip_v", "rotator", "feedback_n", "feedback_nm")
 #: Longest run log read (samples): 10^7 samples at 200 Hz are 14 hours.
 MAX_RUNLOG_SAMPLES = 10_000_000
 #: Root attributes with a fixed type, checked when present.

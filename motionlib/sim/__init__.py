@@ -24,6 +24,8 @@ payload
     The log carried by two cranes as a rigid body on spring-damper grips, and its internal force (001 section 3).
 operators
     Simulated operators: passive, scripted (CSV), novice and expert models (the experts with habits).
+hand_controller
+    The force-reflecting stick the model operators hold with force feedback: a mass-spring-damper per axis.
 operator_model
     The simulated operator's step compiled: perception delay, takeover, corrections, minimum-jerk stick.
 loop

@@ -38,6 +38,7 @@ from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
 from .camera import VisionOptions, simulated_camera, tip_goal, vision_source
 from .contact import ContactParams
+from .hand_controller import HeldStick, StickParams
 from .loop import LoopOptions, LoopResult, run_closed_loop
 from .operators import Operator, make_operator, operator_kind
 from .plant import SimParams, SimulatedCrane
@@ -82,6 +83,12 @@ class ExecuteOptions:
         competing goals are for the gains to arbitrate: a zero ``K_V`` disables an axis), the
         tracker's arrival ending the motion; without one it is the motion itself and ends on its
         own arrival. The camera is fed through the loop's sensor hook (:mod:`motionlib.sim.sensors`).
+    stick : StickParams
+        The hand controller's dynamics (:mod:`motionlib.sim.hand_controller`) when the controller has
+        force feedback (``controller.feedback``): an operator given by name (``passive``, ``novice``,
+        ``expert``, a stick script) then holds a spring-centred stick that the feedback acts on, its
+        samples the hand's intended deflection (:class:`~motionlib.sim.hand_controller.HeldStick`); an
+        operator object is used as it is.
     """
 
     seed: int = 0
@@ -96,6 +103,7 @@ class ExecuteOptions:
     stick_crf: str | None = None
     vision: VisionOptions | None = None
     accommodation: AccommodationOptions | None = None
+    stick: StickParams = field(default_factory=StickParams)
 
     def __post_init__(self) -> None:
         check_scalar(self.time_limit_s, "time_limit_s", gt=0.0)
@@ -328,6 +336,9 @@ def execute(
             raise InputError("operator: the model operators aim the tip; with a stick MRF/CRF give a stick script")
         via = trajectory.waypoints[1:-1] if trajectory is not None else None
         op: Operator = make_operator(str(operator), target_p, mode, controller.joystick, crane, seed=opts.seed, via=via)
+        feedback = opts.controller.feedback
+        if feedback is not None:  # the operator holds the force-reflecting stick
+            op = HeldStick(op, controller.status, opts.stick, feedback.deflection_max_rad, opts.controller.dt_s)
     else:
         op = operator
     camera = simulated_camera(vision) if vision is not None else None

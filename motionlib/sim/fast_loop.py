@@ -2,8 +2,9 @@
 
 :func:`~motionlib.sim.loop.run_closed_loop` hands its steps to :class:`FastLoop` when the run
 allows it (:func:`fast_loop_supported`): the controller has its joystick and at most a path-tracker
-motion (no other sources, no rotator), the simulated crane's contact surfaces do not depend on the
-grapple (none, or the ground), there are no sensors, and the operator can say how it may be
+motion (no other sources, no rotator, no force feedback: :mod:`motionlib.control.force_feedback`), the
+simulated crane's contact surfaces do not depend on the grapple (none, or the ground), there are no
+sensors, and the operator can say how it may be
 stepped (``fast_plan()``, :class:`~motionlib.sim.operators.FastPlan`: the passive and the
 simulated operators, the experiment's task).
 
@@ -167,6 +168,7 @@ def fast_loop_supported(controller: SharedController, sim: SimulatedCrane, opera
     return (
         not senses
         and controller.rotator is None
+        and controller.feedback is None  # force feedback (with its stick) runs in Python
         and sim.crane.rotator is None
         and sim.fixed_planes
         and callable(getattr(operator, "fast_plan", None))

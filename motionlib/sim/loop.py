@@ -17,6 +17,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from ..checks import check_params, param
 from ..control.control_types import Authority
 from ..control.controller import SharedController
@@ -89,7 +91,8 @@ class LoopResult:
         ``rotator_rad`` (the rotator's final angle, cranes with one) and ``peak_contact_force_n``
         (N, with the plant's ground contact); :func:`~motionlib.sim.execute.execute` with an
         accommodation adds ``steady_contact_force_n``, ``contact_force_p10_n``, ``contact_force_p90_n`` and
-        ``contact_hold_s`` (:meth:`~motionlib.sim.sensors.ForceSensor.steady`).
+        ``contact_hold_s`` (:meth:`~motionlib.sim.sensors.ForceSensor.steady`); with force feedback
+        (``ControllerParams.feedback``) ``peak_feedback_n``, the largest grip force on either stick (N).
     """
 
     log: RunLog
@@ -152,6 +155,7 @@ def run_closed_loop(
     status = controller.status
     append = log.append
     rotator = controller.rotator is not None and sim.crane.rotator is not None
+    feedback = controller.feedback is not None
 
     def python_step(calm: int) -> tuple[bool, int]:
         """One step in Python; returns (settled, steps settled in a row)."""
@@ -165,6 +169,8 @@ def run_closed_loop(
         inp = operator.input(obs)
         controller.step(state, inp)
         append(state.t, state.q, state.qd, status, swing)
+        if feedback:  # the hand controller's force (:mod:`motionlib.control.force_feedback`)
+            log.append_feedback(status.feedback_n, status.feedback_nm)
         if rotator:  # the grapple rotator's axis (:mod:`motionlib.control.rotator`)
             r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
             log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
@@ -207,4 +213,7 @@ def run_closed_loop(
         diag["rotator_rad"] = sim.rotator_q  # the grapple rotator's final angle
     if sim.params.contact is not None:
         diag["peak_contact_force_n"] = sim.peak_contact_force_n  # the ground's largest push on the grapple
+    if feedback:  # the largest grip force on either stick
+        fb = log.arrays()["feedback_n"]
+        diag["peak_feedback_n"] = float(np.max(np.hypot(fb[:, 0::2], fb[:, 1::2]), initial=0.0))
     return LoopResult(log, settled, float(cycle), wall, steps, dt, diag)

@@ -281,3 +281,33 @@ def test_accommodation_steady_force_sits_at_the_bound_with_the_guard_on(library,
     assert code != 0 and len(out.strip().splitlines()) == 1 and "axes" in out and "Traceback" not in out
     code, out = _run(*args, "--accommodation-axes", "z")
     assert code != 0 and "--accommodation-axes needs --accommodation" in out
+
+
+def test_feedback_gain_reports_the_peak_and_lowers_the_push(library, tmp_path: Path):
+    """``--feedback-gain 0.0025`` with ``--accommodation 3000 --accommodation-axes z``, stick fully down in M4.
+
+    The stick, pushed back by the sensed force (001 eq. 6), commands less: the push settles at the closed form
+    of tests/integration/test_force_feedback.py (1716 N instead of 0.8 x 3000 N); the summary reports the peak
+    grip force, at most the gain times the peak contact force and within the 10 N bound; the run log has it.
+    """
+    path, ends = library
+    script = tmp_path / "down.csv"
+    script.write_text("t,left_x,left_y,right_x,right_y,abort\n0,0,0,0,-1,0\n6.0,0,0,0,0,0\n")
+    log = tmp_path / "run.h5"
+    args = ("execute", str(path), "--target", ",".join(map(str, ends[0])), "--mode", "M4", "--operator", str(script),
+            "--time-limit", "6", "--accommodation", "3000", "--accommodation-axes", "z")
+    code, out = _run(*args, "--feedback-gain", "0.0025", "--json", "--log", str(log))
+    assert code == 0, out
+    s = json.loads(out)
+    print(f"steady {s['steady_contact_force_n']:.0f} N, peak contact {s['peak_contact_force_n']:.0f} N, "
+          f"peak feedback {s['peak_feedback_n']:.2f} N")
+    assert s["steady_contact_force_n"] == pytest.approx(1716.0, rel=0.01)
+    assert 0.0 < s["peak_feedback_n"] <= min(10.0, 0.0025 * s["peak_contact_force_n"] * (1 + 1e-12))
+    fb = read_runlog(log)["feedback_n"]
+    assert float(np.max(np.hypot(fb[:, [0, 2]], fb[:, [1, 3]]))) == s["peak_feedback_n"]
+    code, out = _run(*args, "--feedback-gain", "0.0025")
+    assert code == 0 and "stick feedback" in out and f"{s['peak_feedback_n']:.2f} N" in out
+    code, out = _run(*args, "--json")
+    assert code == 0 and "peak_feedback_n" not in json.loads(out)
+    code, out = _run(*args, "--feedback-gain", "-1")
+    assert code != 0 and "Traceback" not in out and "--feedback-gain" in out
