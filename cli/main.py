@@ -47,6 +47,7 @@ COMMANDS: dict[str, str] = {
     "execute": "execute:execute",
     "dual": "dual:dual",
     "experiment": "experiment:experiment",
+    "export": "export:export",
 }
 #: Exit status of an unexpected exception (a bug): EX_SOFTWARE of sysexits.h.
 BUG_EXIT_STATUS = 70

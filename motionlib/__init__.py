@@ -22,6 +22,8 @@ analyze_recording(path) -> WorkAnalysis
     Recorded crane work split into the states of 003 Table 3.1, with its statistics (:mod:`motionlib.analysis`).
 replan_recording(recording) -> ReplanReport
     Every recorded move replanned along its path and freely (003 Paper I).
+export_ros(path, output, row=None) -> RosExport
+    A plan, library entry or run log as a ROS 2 bag or MCAP file (Foxglove), URDF joint names.
 
 The types users load: :class:`Crane` (``Crane.load("forwarder")``), :class:`Scene`
 (``Scene.load(path)``), :class:`LibrarySpec` (``LibrarySpec.load(path)``),
@@ -33,7 +35,7 @@ Subpackages follow the data flow; a lower layer never imports a higher one:
 ``motionlib.model``     crane model, kinematics, limits, scene, collision, URDF
 ``motionlib.planning``  path, spline, telescope redundancy, timing, verification, planner
 ``motionlib.library``   library spec, parallel build, HDF5 store, selection
-``motionlib.control``  what a machine runs at 200 Hz: controller, sources, tracker, mixer, run log
+``motionlib.control``  what a machine runs at 200 Hz: controller, sources, tracker, mixer, run log, ROS export
 ``motionlib.sim``      the simulated crane, sensors, model operators, closed loops, ``execute``
 ``motionlib.analysis``  recorded crane work: states, joint usage, replanned moves
 ``motionlib.viz``       figures and the 3D viewer
@@ -72,6 +74,7 @@ _EXPORTS: dict[str, str] = {
     "write_view": "motionlib.viz.viewer",
     "analyze_recording": "motionlib.analysis.work_analysis",
     "replan_recording": "motionlib.analysis.replan",
+    "export_ros": "motionlib.control.ros_export",
     # types users load or get back
     "Crane": "motionlib.model.kinematics",
     "Capsule": "motionlib.model.kinematics",
@@ -103,6 +106,7 @@ _EXPORTS: dict[str, str] = {
     "ViewOptions": "motionlib.viz.viewer",
     "WorkAnalysis": "motionlib.analysis.work_analysis",
     "ReplanReport": "motionlib.analysis.replan",
+    "RosExport": "motionlib.control.ros_export",
 }
 
 __all__ = [
@@ -115,6 +119,7 @@ __all__ = [
     "write_view",
     "analyze_recording",
     "replan_recording",
+    "export_ros",
     "Crane",
     "Capsule",
     "Scene",
@@ -145,6 +150,7 @@ __all__ = [
     "ViewOptions",
     "WorkAnalysis",
     "ReplanReport",
+    "RosExport",
     "ExecutionError",
     "InputError",
     "LibraryFileError",
@@ -160,6 +166,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.work_analysis import WorkAnalysis, analyze_recording
     from .control.accommodation import AccommodationOptions
     from .control.control_types import Mode
+    from .control.ros_export import RosExport, export_ros
     from .experiment.loading_cycle import CycleRun, CycleStatus, LoadingCycleOptions, LoadingCycleResult, loading_cycle
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library

@@ -14,6 +14,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import tempfile
 import threading
 from collections.abc import Iterator
@@ -85,6 +86,36 @@ def atomic_output(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextmanager
+def atomic_directory(path: str | Path) -> Iterator[Path]:
+    """Yield a path (not yet existing) beside ``path`` for a new directory; on success fsync its files and
+    rename it to ``path``.
+
+    The directory counterpart of :func:`atomic_output`: a reader never sees a half-written directory,
+    and on error the partial one is removed. An existing ``path`` is refused, never replaced (replacing
+    a directory would delete a tree).
+
+    Raises
+    ------
+    InputError
+        ``path`` exists.
+    """
+    path = Path(path)
+    if os.path.lexists(path):
+        raise InputError(f"{path}: exists already: a new directory is written there (remove it or choose another name)")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    work = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    try:
+        target = work / path.name
+        yield target
+        for file in sorted(p for p in target.rglob("*") if p.is_file()):
+            with open(file, "rb+") as handle:
+                os.fsync(handle.fileno())
+        os.rename(target, path)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
 
 
 # ------------------------------------------------------------------ sealed HDF5 files

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -22,6 +24,7 @@ settings.register_profile("seeded", derandomize=True)
 settings.register_profile("explore", derandomize=False)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "seeded"))
 
+ROOT = Path(__file__).resolve().parents[1]
 SHIPPED_CRANES = ("lab", "forwarder")
 SLOW_KINDS = ("notebook", "browser", "cluster")
 
@@ -61,3 +64,56 @@ def sample_q() -> Callable[..., np.ndarray]:
         return np.random.default_rng(seed).uniform(lo, hi, size=(n, 4))
 
     return sample
+
+
+@pytest.fixture(scope="session")
+def rotator_plan() -> tuple[Crane, Any, Any]:
+    """(crane, scene, trajectory): one plan of the lab crane with its grapple rotator (examples/lab-rotator.yaml),
+    target-center to pickup-between in obstacles/log-loading.yaml (about 4 s), planned once per session."""
+    from motionlib.model.scene import Scene
+    from motionlib.planning.planner import Planner
+
+    crane = Crane.load(ROOT / "examples" / "lab-rotator.yaml")
+    scene = Scene.load(ROOT / "obstacles" / "log-loading.yaml")
+    result = Planner(crane, scene).plan(np.append(scene.start("target-center"), 0.3), scene.point("pickup-between"))
+    assert result.ok, result.reason
+    return crane, scene, result.trajectory
+
+
+@pytest.fixture(scope="session")
+def export_inputs(rotator_plan, tmp_path_factory) -> dict[str, Path]:
+    """Small files of each kind ``motionlib export`` reads, made cheaply: ``plan`` (the rotator plan's file),
+    ``library`` (one entry: the same trajectory), ``runlog`` (lab crane) and ``rotator_runlog`` (lab crane with
+    its rotator), the run logs written by :func:`motionlib.control.runlog.write_runlog` from 401 rows of a
+    smooth motion within the joint limits (no simulation: the files are what the export reads)."""
+    from motionlib.control.runlog import COLUMNS, RunLog, write_runlog
+    from motionlib.library.store import EntryRecord, IndexRow, LibraryWriter
+    from motionlib.planning.trajectory import save_plan
+
+    crane, scene, traj = rotator_plan
+    folder = tmp_path_factory.mktemp("export-inputs")
+    files = {"plan": folder / "plan.h5", "library": folder / "library.h5"}
+    save_plan(files["plan"], traj, crane, scene)
+    start, goal = traj.q[0], traj.info.goal_p
+    with LibraryWriter(files["library"], "one", crane, scene, spec={}, build={}) as writer:
+        record = EntryRecord(
+            index=0, key="out|target-center|pickup-between", motion="out", start="target-center", start_q=start,
+            target="pickup-between", target_p=goal, loaded=False, seed=0, status="ok", stage="", reason="",
+            plan_time_s=0.0,
+        )  # fmt: skip
+        writer.add(record, IndexRow.from_trajectory(traj, crane, start), traj)
+    for name, model in (("runlog", Crane.load("lab")), ("rotator_runlog", crane)):
+        t = np.arange(401) * 0.005
+        omega = np.pi / t[-1] * np.array([1.0, 2.0, 3.0, 4.0])  # rad/s of each joint's sine
+        mid, half = (model.q_max + model.q_min) / 2, 0.3 * (model.q_max - model.q_min) / 2
+        rows = np.zeros((len(t), len(COLUMNS)))
+        rows[:, 0], rows[:, 1:5] = t, mid + half * np.sin(omega * t[:, None])
+        rows[:, 5:9] = half * omega * np.cos(omega * t[:, None])
+        rows[:, 15:17] = np.nan  # s_p, deviation_m: no automated motion
+        log = RunLog(attrs={"crane": model.name})
+        log.extend(rows)
+        if model.rotator is not None:
+            for k in range(len(t)):
+                log.append_rotator(0.5 * np.sin(t[k]), 0.5 * np.cos(t[k]), 0.0)
+        files[name] = write_runlog(folder / f"{name}.h5", log, model)
+    return files

@@ -44,6 +44,8 @@ gaze
     Head orientation to gaze: the linear model, its calibration and the target estimate (003 section 5.3).
 runlog
     The 200 Hz run log and its HDF5 file.
+ros_export
+    Plans, library entries and run logs as ROS 2 bags and MCAP files (Foxglove), with the URDF's joint names.
 metrics
     Smoothness (total jerk, 000 eq. 6), path deviation and the run summary.
 """

@@ -52,6 +52,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .crane_model import JOINT_NAMES, ROTATOR_NAME
+
 if TYPE_CHECKING:
     from .kinematics import Crane
 
@@ -115,13 +117,13 @@ def crane_to_urdf(crane: Crane) -> str:
             a, b, radius = geometry[link_name]
             _add_capsule(link, np.array(a), np.array(b), radius)
 
-    joints = [
-        ("slew", "base_link", "column", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
-        ("boom", "column", "boom", (m.boom_pivot_offset, 0.0, m.column_height), (0.0, -1.0, 0.0)),
-        ("jib", "boom", "jib", (m.boom_length, 0.0, 0.0), (0.0, -1.0, 0.0)),
-        ("telescope", "jib", "telescope", (m.jib_length, 0.0, m.telescope_offset), (1.0, 0.0, 0.0)),
+    joints = [  # parent link, child link, origin, axis of the joints JOINT_NAMES (slew, boom, jib, telescope)
+        ("base_link", "column", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)),
+        ("column", "boom", (m.boom_pivot_offset, 0.0, m.column_height), (0.0, -1.0, 0.0)),
+        ("boom", "jib", (m.boom_length, 0.0, 0.0), (0.0, -1.0, 0.0)),
+        ("jib", "telescope", (m.jib_length, 0.0, m.telescope_offset), (1.0, 0.0, 0.0)),
     ]
-    for spec, (name, parent, child, xyz, axis) in zip(m.joints, joints, strict=True):
+    for spec, name, (parent, child, xyz, axis) in zip(m.joints, JOINT_NAMES, joints, strict=True):
         joint = ET.SubElement(robot, "joint", name=name, type=spec.type)
         ET.SubElement(joint, "parent", link=parent)
         ET.SubElement(joint, "child", link=child)
@@ -165,7 +167,7 @@ def _add_rotator(robot: ET.Element, crane: Crane) -> None:
     chain = [
         ("grapple_swing_pitch", "tip", "grapple_hanger", (0.0, 1.0, 0.0)),
         ("grapple_swing_roll", "grapple_hanger", "grapple_swing", (1.0, 0.0, 0.0)),
-        ("rotator", "grapple_swing", "grapple", (0.0, 0.0, 1.0)),
+        (ROTATOR_NAME, "grapple_swing", "grapple", (0.0, 0.0, 1.0)),
     ]
     for name, parent, child, axis in chain:
         joint = ET.SubElement(robot, "joint", name=name, type="revolute")
@@ -173,7 +175,7 @@ def _add_rotator(robot: ET.Element, crane: Crane) -> None:
         ET.SubElement(joint, "child", link=child)
         ET.SubElement(joint, "origin", xyz="0 0 0", rpy="0 0 0")
         ET.SubElement(joint, "axis", xyz=_fmt(axis))
-        if name == "rotator":
+        if name == ROTATOR_NAME:
             joint.append(ET.Comment(
                 f" the grapple rotator q5. velocity: the larger magnitude of velocity_min {spec.velocity_min!r} "
                 f"and velocity_max {spec.velocity_max!r}. acceleration_max {spec.acceleration_max!r}. "))
