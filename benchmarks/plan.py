@@ -101,9 +101,9 @@ def log_loading_queries(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarra
 
 
 def random_queries(n: int, seed: int):
-    """``queries_fn`` of :func:`run`: ``n`` random valid queries (see the module docstring), alternately empty and loaded.
+    """``queries_fn`` of :func:`run`: ``n`` random valid queries (module docstring), alternately empty and loaded.
 
-    Each query also carries its goal configuration (4,) in ``GOAL_Q[name]``, for the obstacle report."""
+    Each query's goal configuration (4,) goes to ``GOAL_Q[scene name, query name]``, for the obstacle report."""
 
     def make(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
         o = PlanOptions()
