@@ -30,14 +30,24 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
 
 @click.command()
 @click.argument("library", type=click.Path(dir_okay=False))
-@vector_option("target", 3, "Target tip point x,y,z (m, base frame).", required=True)
+@vector_option("target", 3, "Target tip point x,y,z (m, base frame); or --command, or --gaze.")
+@click.option("--commands", "commands_file", type=click.Path(dir_okay=False),
+              help="Command set (YAML, docs/commands.md): names bound to targets, for --command and a stick script's "
+              "command column.")
+@click.option("--command", metavar="NAME", help="Run the motion bound to this command of --commands (003 section "
+              "5.1.1) instead of --target.")
+@click.option("--gaze", "gaze_file", type=click.Path(dir_okay=False), help="Target from a recorded head stream and "
+              "its calibration (YAML, docs/commands.md), selected with the estimate's covariance (003 eq. 5.7).")
+@click.option("--open-loop", "open_loop", type=click.IntRange(min=2, max=10_000), metavar="N",
+              help="Execute the selected trajectory N times open loop with trajectory modification (003 Paper II) "
+              "instead of the closed loop; report each execution's end error.")
 @mode_option
 @click.option("--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
               help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).")
 @vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: the selected "
                "trajectory's start.")
-@click.option("--utility", type=click.Choice(["time", "energy", "robust"]), default="time", show_default=True,
-              help="Selection utility (003 eqs. 5.6-5.7).")
+@click.option("--utility", type=click.Choice(["time", "energy", "robust"]),
+              help="Selection utility (003 eqs. 5.6-5.7) [default: time; robust with --gaze; a command's own].")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
               help="Seed of the operator model and the valve noise.")
 @click.option("--noise", default=0.0, show_default=True, type=FiniteFloatRange(min=0.0, max=10.0),
@@ -67,16 +77,25 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
-    library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    stick_mrf, stick_crf, vision_target, vision_gains, force_bound, accommodation_axes, log_path, as_json, plot_dir,
+    library, target, commands_file, command, gaze_file, open_loop, mode, operator_spec, current, utility, seed, noise,
+    time_limit, no_guard, no_swing_damping, stick_mrf, stick_crf, vision_target, vision_gains, force_bound,
+    accommodation_axes, log_path, as_json, plot_dir,
 ) -> None:
-    """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
+    """Execute the LIBRARY trajectory selected for TARGET (or a command, or a gaze) with a simulated crane and operator.
+
+    With --commands, a stick script (--operator FILE.csv) may give further commands during the run
+    (its command column); such a run may start without a motion (give --current instead of --command).
+    """
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
     from motionlib.errors import ContactLoopWarning
     from motionlib.sim.execute import contact_loop_check
     from motionlib.sim.plant import SimParams
 
+    script_commands = commands_file is not None and command is None and current is not None
+    _check_target_options(target, commands_file, command, gaze_file, open_loop, script_commands)
+    if open_loop is not None and (operator_spec != "passive" or log_path or plot_dir):
+        raise click.UsageError("--open-loop runs without an operator, a run log or plots")
     vision = _vision_options(vision_target, vision_gains)
     accommodation = None
     if force_bound is not None:
@@ -85,22 +104,38 @@ def execute(
         raise click.UsageError("--accommodation-axes needs --accommodation")
     with tty_steps("execute", 3 if plot_dir else 2, as_json) as step:
         lib = Library.open(library)
-        selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
-        row = int(selection.indices[0])
+        chosen = _select(lib, target, commands_file, command, gaze_file, current, utility)
+        if open_loop is not None:
+            _open_loop(lib, chosen, open_loop, seed, as_json, step)
+            return
+        row = int(chosen.row) if chosen.row is not None else -1
+        target = chosen.target
+        utility = chosen.utility
         controller = ControllerParams(swing_damping=0.0) if no_swing_damping else ControllerParams()
         options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                                  sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                                  stick_crf=stick_crf, vision=vision, accommodation=accommodation)
-        entry = int(lib.entry[row])
+        entry = int(lib.entry[row]) if row >= 0 else -1
         warning = contact_loop_check(options)
         if warning:  # before the run: a gain that makes the contact ring
             click.echo(f"warning: {warning}", err=True)
-        step(f"library row {row} selected; running the closed loop (time limit {time_limit:g} s)")
+        step(f"{f'library row {row} selected' if row >= 0 else 'no motion yet'}; running the closed loop "
+             f"(time limit {time_limit:g} s)")
+        attrs = {"library": str(library), "row": row, "entry": entry, "utility": utility}
+        issued = None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ContactLoopWarning)  # said above, in one line
-            run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
-                          start_q=current, options=options,
-                          log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
+            if chosen.commands is not None:
+                from motionlib import execute_command
+
+                commanded = execute_command(lib, chosen.commands, command, mode=mode, operator=operator_spec,
+                                            start_q=current, options=options, log_attrs=attrs)
+                run, issued = commanded.run, commanded.issued
+                row = commanded.row if commanded.row is not None else -1
+                entry = int(lib.entry[row]) if row >= 0 else -1
+            else:
+                run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec,
+                              target=target, start_q=current, options=options, log_attrs=attrs)
         step(f"{run.log.t_end:.1f} s simulated")
         report: dict[str, Any] = {
             **run.summary.to_dict(),
@@ -116,6 +151,13 @@ def execute(
             "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
             "log": str(log_path) if log_path else None,
         }
+        if issued is not None:
+            report["status"] = commanded.status.value
+            report["commands"] = [{"t": c.t, "name": c.name, "status": c.status.value, "library_row": c.row,
+                                   "target": c.target_p.tolist(), "detail": c.detail} for c in issued]
+        if chosen.gaze is not None:
+            report["gaze_estimate"] = chosen.gaze.p_est.tolist()
+            report["gaze_covariance"] = chosen.gaze.covariance.tolist()
         if vision is not None:
             report["vision_target"] = run.log.attrs["vision_target"]
             report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
@@ -139,6 +181,80 @@ def execute(
         emit_json(report)
         return
     _print_report(report)
+
+
+class _Chosen:
+    """What ``_select`` chose: the library row (None: a script's commands choose), the run's target, the utility
+    used, the command set (with --commands) and the gaze estimate (with --gaze)."""
+
+    def __init__(self, row: int | None, target: Any, utility: str, commands: Any = None, gaze: Any = None):
+        self.row, self.target, self.utility, self.commands, self.gaze = row, target, utility, commands, gaze
+
+
+def _check_target_options(target: Any, commands_file: str | None, command: str | None, gaze_file: str | None,
+                          open_loop: int | None, script_commands: bool) -> None:
+    """Exactly one of --target, --command and --gaze (none for a run whose stick script gives the commands)."""
+    if command is not None and commands_file is None:
+        raise click.UsageError("--command needs --commands FILE")
+    if commands_file is not None and (target is not None or gaze_file is not None):
+        raise click.UsageError("--commands: the run's motions come from --command and the stick script's commands, "
+                               "not from --target or --gaze")
+    given = [name for name, v in (("--target", target), ("--command", command), ("--gaze", gaze_file)) if v is not None]
+    if len(given) > 1 or (not given and (open_loop is not None or not script_commands)):
+        raise click.UsageError(f"give exactly one of --target, --command and --gaze (or --commands with --current and "
+                               f"a stick script that gives the commands), got {', '.join(given) or 'none'}")
+
+
+def _select(lib: Any, target: Any, commands_file: str | None, command: str | None, gaze_file: str | None,
+            current: Any, utility: str | None) -> _Chosen:
+    """The library row for --target, --command or --gaze (003 eqs. 5.3-5.7)."""
+    from motionlib import CommandSet, GazeRecording, select_by_gaze
+
+    commands = CommandSet.load(commands_file, lib.scene) if commands_file is not None else None
+    if gaze_file is not None:
+        chosen = select_by_gaze(lib, GazeRecording.load(gaze_file), current, utility or "robust")
+        chosen.raise_for_status(str(lib.path))
+        return _Chosen(int(chosen.selection.indices[0]), chosen.estimate.p_est, chosen.selection.utility.value,
+                       commands, chosen.estimate)
+    if commands is not None and command is not None:
+        if utility is not None:
+            raise click.UsageError("--utility: a command selects by the utility its command set gives")
+        bound = commands.command(command)
+        selection = commands.select(lib, command, current).raise_for_status(f"{lib.path}: command {command}")
+        return _Chosen(int(selection.indices[0]), bound.target_p, bound.utility.value, commands)
+    if target is None:  # the stick script's commands choose
+        return _Chosen(None, None, "", commands)
+    selection = lib.select_checked(target, current, utility or "time").raise_for_status(str(lib.path))
+    return _Chosen(int(selection.indices[0]), target, selection.utility.value, commands)
+
+
+def _open_loop(lib: Any, chosen: _Chosen, n: int, seed: int, as_json: bool, step: Any) -> None:
+    """``--open-loop N``: :func:`motionlib.open_loop_executions` of the chosen row, and its report."""
+    from motionlib import open_loop_executions
+
+    step(f"library row {chosen.row} selected; {n} open-loop executions")
+    result = open_loop_executions(lib.trajectory(chosen.row), lib.crane, n, seed=seed)
+    report = {
+        "library_row": chosen.row, "status": result.status.value, "loaded": result.loaded,
+        "learning_gain": result.learning_gain, "valve_gain_pos": list(result.valve_gain_pos),
+        "valve_gain_neg": list(result.valve_gain_neg), "predicted_contraction": result.predicted_contraction.tolist(),
+        "executions": [{"joint_error": e.tolist(), "tip_error_m": float(tip),
+                        "contraction": float(result.contraction[k - 1]) if k else None}
+                       for k, (e, tip) in enumerate(zip(result.joint_error, result.tip_error_m, strict=True))],
+    }
+    step(result.message)
+    if as_json:
+        emit_json(report)
+        return
+    click.echo(f"open loop: library row {chosen.row}, {n} executions, learning gain {result.learning_gain:g}; "
+               f"{result.message}")
+    click.echo("  run  e_q1 rad    e_q2 rad    e_q3 rad    e_q4 m      tip m     contraction")
+    for k, ex in enumerate(report["executions"], start=1):
+        e = ex["joint_error"]
+        ratio = "" if ex["contraction"] is None else f"{ex['contraction']:.3f}"
+        click.echo(f"  {k:3d} {e[0]:+.6f} {e[1]:+.6f} {e[2]:+.6f} {e[3]:+.6f} {ex['tip_error_m']:.6f}  {ratio}")
+    click.echo("  predicted per-joint contraction |1 - g L|: "
+               + ", ".join(f"{v:.3f}" for v in result.predicted_contraction))
 
 
 def _vision_options(target: str | None, gains: Any) -> Any:
@@ -165,7 +281,7 @@ def _fmt(value: Any, unit: str, digits: int = 3) -> str:
 def _print_report(s: dict[str, Any]) -> None:
     settled = "settled" if s["settled"] else "time limit reached"
     click.echo(f"{s['mode']} with operator {s['operator']}: library row {s['library_row']} "
-               f"(planned {s['planned_duration_s']:.2f} s), {settled}")
+               f"(planned {_fmt(s['planned_duration_s'], 's', 2)}), {settled}")
     click.echo(f"  cycle time        {_fmt(s['cycle_time_s'], 's', 2)} "
                f"(settle ratio {_fmt(s['settle_ratio'], 'x planned', 2)})")
     click.echo(f"  final error       {_fmt(s['final_error_m'], 'm')}")
@@ -191,6 +307,10 @@ def _print_report(s: dict[str, Any]) -> None:
                    "(ground and obstacles)")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
+    for c in s.get("commands", []):
+        click.echo(f"  command {c['name']:<9} at {c['t']:.2f} s: {c['status']} ({c['detail']})")
+    if "gaze_estimate" in s:
+        click.echo(f"  gaze estimate     {', '.join(f'{v:.3f}' for v in s['gaze_estimate'])} m")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")
     if s["log"]:
         click.echo(f"  run log           {s['log']}")
