@@ -98,7 +98,7 @@ def select(library, target, gaze_file, current, utility, l1, l2, sigma, v_manual
         )
         return
     if gaze is not None:
-        click.echo(gaze.message.split(": ", 1)[0])
+        click.echo(f"gaze estimate ({', '.join(f'{v:.3f}' for v in target_p)}) m")
     click.echo(f"{result.message} (L1 {result.L1} m" + (f", L2 {result.L2})" if current_q is not None else ")"))
     header = ("rank", 4), ("index", 6), ("entry", 6), ("duration s", 10), ("energy l", 9), ("score", 9), ("d_end m", 8)
     click.echo(" ".join(f"{name:>{width}}" for name, width in header) + "  end")
