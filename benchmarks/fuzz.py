@@ -1,4 +1,4 @@
-"""Fuzzing the file readers: mutated crane, scene, spec, stick-script, plan, library and run-log files.
+"""Fuzzing the file readers: mutated crane, scene, spec, stick-script, plan, library, run-log, command and gaze files.
 
 Run: ``python benchmarks/fuzz.py [--n 1000000] [--readers crane,scene,...] [--seed 0] [--workers 2] [--budget S]``
 (``--budget``: stop each reader after S seconds; the table counts the inputs done).
@@ -653,6 +653,26 @@ def _use_script(path: Path) -> Any:
     return stick
 
 
+def _use_commands(path: Path) -> Any:
+    """``execute --commands FILE --command NAME`` up to the selection: the set read against its scene."""
+    from motionlib.library.commands import CommandSet
+
+    commands = CommandSet.load(path, _shipped("forwarder")[1])
+    for name in commands.commands:
+        commands.command(name)
+    return commands
+
+
+def _use_gaze(path: Path) -> Any:
+    """``select --gaze FILE`` up to the selection: the recording and its target estimate."""
+    from motionlib.control.gaze_recording import GazeRecording
+
+    recording = GazeRecording.load(path)
+    with contextlib.suppress(_motionlib_error()):  # a gaze that does not come down is a clean answer (no_estimate)
+        recording.estimate()
+    return recording
+
+
 def _use_plan(path: Path) -> Any:
     from motionlib.fileio import open_sealed
     from motionlib.model.embedded import embedded_models
@@ -754,6 +774,9 @@ def make_readers(fixtures: Fixtures) -> dict[str, Reader]:
         "runlog": Reader("runlog", ".h5", [fixtures.runlog.read_bytes()], _use_runlog, "hdf5"),
         "checkpoint": Reader("checkpoint", ".h5", [(fixtures.checkpoints / "000000.h5").read_bytes()],
                              functools.partial(_use_checkpoint, fixtures), "hdf5"),
+        "commands": Reader("commands", ".yaml", [(ROOT / "docs" / "examples" / "forwarder-site-commands.yaml")
+                                                 .read_bytes()], _use_commands),
+        "gaze": Reader("gaze", ".yaml", [(ROOT / "docs" / "examples" / "forwarder-gaze.yaml").read_bytes()], _use_gaze),
     }
 
 
@@ -853,7 +876,7 @@ def _run_one(args: tuple) -> tuple[str, list[int], float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=1_000_000, help="inputs per reader")
-    parser.add_argument("--readers", default="crane,scene,spec,script,plan,library,runlog,checkpoint")
+    parser.add_argument("--readers", default="crane,scene,spec,script,plan,library,runlog,checkpoint,commands,gaze")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2, help="readers run in parallel")
     parser.add_argument("--timeout", type=float, default=60.0, help="seconds without progress that count as a hang")

@@ -14,6 +14,7 @@ import click
 
 from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_option, mode_option, vector_option
 from .output import emit_json, tty_steps
+from .targets import check_target_options, open_loop_report, select_row
 
 
 def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
@@ -30,14 +31,24 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
 
 @click.command()
 @click.argument("library", type=click.Path(dir_okay=False))
-@vector_option("target", 3, "Target tip point x,y,z (m, base frame).", required=True)
+@vector_option("target", 3, "Target tip point x,y,z (m, base frame); or --command, or --gaze.")
+@click.option("--commands", "commands_file", type=click.Path(dir_okay=False),
+              help="Command set (YAML, docs/commands.md): names bound to targets, for --command and a stick script's "
+              "command column.")
+@click.option("--command", metavar="NAME", help="Run the motion bound to this command of --commands (003 section "
+              "5.1.1) instead of --target.")
+@click.option("--gaze", "gaze_file", type=click.Path(dir_okay=False), help="Target from a recorded head stream and "
+              "its calibration (YAML, docs/commands.md), selected with the estimate's covariance (003 eq. 5.7).")
+@click.option("--open-loop", "open_loop", type=click.IntRange(min=2, max=10_000), metavar="N",
+              help="Execute the selected trajectory N times open loop with trajectory modification (003 Paper II) "
+              "instead of the closed loop; report each execution's end error.")
 @mode_option
 @click.option("--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
               help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).")
 @vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: the selected "
                "trajectory's start.")
-@click.option("--utility", type=click.Choice(["time", "energy", "robust"]), default="time", show_default=True,
-              help="Selection utility (003 eqs. 5.6-5.7).")
+@click.option("--utility", type=click.Choice(["time", "energy", "robust"]),
+              help="Selection utility (003 eqs. 5.6-5.7) [default: time; robust with --gaze; a command's own].")
 @click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
               help="Seed of the operator model and the valve noise.")
 @click.option("--noise", default=0.0, show_default=True, type=FiniteFloatRange(min=0.0, max=10.0),
@@ -71,11 +82,15 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
 @json_option
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
-    library, target, mode, operator_spec, current, utility, seed, noise, time_limit, no_guard, no_swing_damping,
-    stick_mrf, stick_crf, vision_target, vision_gains, force_bound, accommodation_axes, feedback_gain, log_path,
-    as_json, plot_dir,
+    library, target, commands_file, command, gaze_file, open_loop, mode, operator_spec, current, utility, seed, noise,
+    time_limit, no_guard, no_swing_damping, stick_mrf, stick_crf, vision_target, vision_gains, force_bound,
+    accommodation_axes, feedback_gain, log_path, as_json, plot_dir,
 ) -> None:
-    """Execute the LIBRARY trajectory selected for TARGET with a simulated crane and operator."""
+    """Execute the LIBRARY trajectory selected for TARGET (or a command, or a gaze) with a simulated crane and operator.
+
+    With --commands, a stick script (--operator FILE.csv) may give further commands during the run
+    (its command column); such a run may start without a motion (give --current instead of --command).
+    """
     from motionlib import AccommodationOptions, ExecuteOptions, Library, execute
     from motionlib.control.control_types import ControllerParams
     from motionlib.control.force_feedback import ForceFeedbackParams
@@ -83,6 +98,10 @@ def execute(
     from motionlib.sim.execute import contact_loop_check
     from motionlib.sim.plant import SimParams
 
+    script_commands = commands_file is not None and command is None and current is not None
+    check_target_options(target, commands_file, command, gaze_file, open_loop, script_commands)
+    if open_loop is not None and (operator_spec != "passive" or log_path or plot_dir):
+        raise click.UsageError("--open-loop runs without an operator, a run log or plots")
     vision = _vision_options(vision_target, vision_gains)
     accommodation = None
     if force_bound is not None:
@@ -91,24 +110,40 @@ def execute(
         raise click.UsageError("--accommodation-axes needs --accommodation")
     with tty_steps("execute", 3 if plot_dir else 2, as_json) as step:
         lib = Library.open(library)
-        selection = lib.select_checked(target, current, utility).raise_for_status(str(library))
-        row = int(selection.indices[0])
+        chosen = select_row(lib, target, commands_file, command, gaze_file, current, utility)
+        if open_loop is not None:
+            open_loop_report(lib, chosen, open_loop, seed, as_json, step)
+            return
+        row = int(chosen.row) if chosen.row is not None else -1
+        target = chosen.target
+        utility = chosen.utility
         controller = ControllerParams(
             swing_damping=0.0 if no_swing_damping else ControllerParams.swing_damping,
             feedback=ForceFeedbackParams(gain=feedback_gain) if feedback_gain is not None else None)
         options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                                  sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                                  stick_crf=stick_crf, vision=vision, accommodation=accommodation)
-        entry = int(lib.entry[row])
+        entry = int(lib.entry[row]) if row >= 0 else -1
         warning = contact_loop_check(options)
         if warning:  # before the run: a gain that makes the contact ring
             click.echo(f"warning: {warning}", err=True)
-        step(f"library row {row} selected; running the closed loop (time limit {time_limit:g} s)")
+        step(f"{f'library row {row} selected' if row >= 0 else 'no motion yet'}; running the closed loop "
+             f"(time limit {time_limit:g} s)")
+        attrs = {"library": str(library), "row": row, "entry": entry, "utility": utility}
+        issued = None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ContactLoopWarning)  # said above, in one line
-            run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec, target=target,
-                          start_q=current, options=options,
-                          log_attrs={"library": str(library), "row": row, "entry": entry, "utility": utility})
+            if chosen.commands is not None:
+                from motionlib import execute_command
+
+                commanded = execute_command(lib, chosen.commands, command, mode=mode, operator=operator_spec,
+                                            start_q=current, options=options, log_attrs=attrs)
+                run, issued = commanded.run, commanded.issued
+                row = commanded.row if commanded.row is not None else -1
+                entry = int(lib.entry[row]) if row >= 0 else -1
+            else:
+                run = execute(lib.trajectory(row), lib.crane, lib.scene, mode=mode, operator=operator_spec,
+                              target=target, start_q=current, options=options, log_attrs=attrs)
         step(f"{run.log.t_end:.1f} s simulated")
         report: dict[str, Any] = {
             **run.summary.to_dict(),
@@ -124,6 +159,13 @@ def execute(
             "events": [{"t": e.t, "name": e.name, "detail": e.detail} for e in run.log.events],
             "log": str(log_path) if log_path else None,
         }
+        if issued is not None:
+            report["status"] = commanded.status.value
+            report["commands"] = [{"t": c.t, "name": c.name, "status": c.status.value, "library_row": c.row,
+                                   "target": c.target_p.tolist(), "detail": c.detail} for c in issued]
+        if chosen.gaze is not None:
+            report["gaze_estimate"] = chosen.gaze.p_est.tolist()
+            report["gaze_covariance"] = chosen.gaze.covariance.tolist()
         if vision is not None:
             report["vision_target"] = run.log.attrs["vision_target"]
             report["vision_steps"], report["vision_seen_steps"] = run.vision_steps, run.vision_seen_steps
@@ -175,7 +217,7 @@ def _fmt(value: Any, unit: str, digits: int = 3) -> str:
 def _print_report(s: dict[str, Any]) -> None:
     settled = "settled" if s["settled"] else "time limit reached"
     click.echo(f"{s['mode']} with operator {s['operator']}: library row {s['library_row']} "
-               f"(planned {s['planned_duration_s']:.2f} s), {settled}")
+               f"(planned {_fmt(s['planned_duration_s'], 's', 2)}), {settled}")
     click.echo(f"  cycle time        {_fmt(s['cycle_time_s'], 's', 2)} "
                f"(settle ratio {_fmt(s['settle_ratio'], 'x planned', 2)})")
     click.echo(f"  final error       {_fmt(s['final_error_m'], 'm')}")
@@ -203,6 +245,10 @@ def _print_report(s: dict[str, Any]) -> None:
         click.echo(f"  stick feedback    {s['peak_feedback_n']:.2f} N at most on the grip")
     if "log_yaw_end_rad" in s:
         click.echo(f"  log yaw at end    {_fmt(s['log_yaw_end_rad'], 'rad', 4)} (rotator {s['rotator_rad']:.4f} rad)")
+    for c in s.get("commands", []):
+        click.echo(f"  command {c['name']:<9} at {c['t']:.2f} s: {c['status']} ({c['detail']})")
+    if "gaze_estimate" in s:
+        click.echo(f"  gaze estimate     {', '.join(f'{v:.3f}' for v in s['gaze_estimate'])} m")
     click.echo(f"  simulated {s['simulated_s']:.2f} s at {s['real_time_factor']:.0f}x real time")
     if s["log"]:
         click.echo(f"  run log           {s['log']}")

@@ -24,6 +24,12 @@ replan_recording(recording) -> ReplanReport
     Every recorded move replanned along its path and freely (003 Paper I).
 export_ros(path, output, row=None) -> RosExport
     A plan, library entry or run log as a ROS 2 bag or MCAP file (Foxglove), URDF joint names.
+execute_command(library, CommandSet.load(path, library.scene), name, ...) -> CommandRunResult
+    Run the motion bound to a discrete command, and a stick script's commands (003 section 5.1.1).
+select_by_gaze(library, GazeRecording.load(path)) -> GazeSelection
+    Select for the target a recorded head stream points at, with its covariance (003 eq. 5.7, Paper III).
+open_loop_executions(trajectory, crane, n) -> OpenLoopExecutions
+    Repeated open-loop executions with trajectory modification and their end errors (003 Paper II).
 
 The types users load: :class:`Crane` (``Crane.load("forwarder")``), :class:`Scene`
 (``Scene.load(path)``), :class:`LibrarySpec` (``LibrarySpec.load(path)``),
@@ -75,6 +81,9 @@ _EXPORTS: dict[str, str] = {
     "analyze_recording": "motionlib.analysis.work_analysis",
     "replan_recording": "motionlib.analysis.replan",
     "export_ros": "motionlib.control.ros_export",
+    "execute_command": "motionlib.sim.commands",
+    "select_by_gaze": "motionlib.control.gaze_recording",
+    "open_loop_executions": "motionlib.experiment.open_loop_study",
     # types users load or get back
     "Crane": "motionlib.model.kinematics",
     "Capsule": "motionlib.model.kinematics",
@@ -107,6 +116,14 @@ _EXPORTS: dict[str, str] = {
     "WorkAnalysis": "motionlib.analysis.work_analysis",
     "ReplanReport": "motionlib.analysis.replan",
     "RosExport": "motionlib.control.ros_export",
+    "CommandSet": "motionlib.library.commands",
+    "CommandRunResult": "motionlib.sim.commands",
+    "CommandRunStatus": "motionlib.sim.commands",
+    "GazeRecording": "motionlib.control.gaze_recording",
+    "GazeSelection": "motionlib.control.gaze_recording",
+    "GazeSelectionStatus": "motionlib.control.gaze_recording",
+    "OpenLoopExecutions": "motionlib.experiment.open_loop_study",
+    "OpenLoopStatus": "motionlib.experiment.open_loop_study",
 }
 
 __all__ = [
@@ -120,6 +137,9 @@ __all__ = [
     "analyze_recording",
     "replan_recording",
     "export_ros",
+    "execute_command",
+    "select_by_gaze",
+    "open_loop_executions",
     "Crane",
     "Capsule",
     "Scene",
@@ -151,6 +171,14 @@ __all__ = [
     "WorkAnalysis",
     "ReplanReport",
     "RosExport",
+    "CommandSet",
+    "CommandRunResult",
+    "CommandRunStatus",
+    "GazeRecording",
+    "GazeSelection",
+    "GazeSelectionStatus",
+    "OpenLoopExecutions",
+    "OpenLoopStatus",
     "ExecutionError",
     "InputError",
     "LibraryFileError",
@@ -167,9 +195,12 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .control.accommodation import AccommodationOptions
     from .control.control_types import Mode
     from .control.ros_export import RosExport, export_ros
+    from .control.gaze_recording import GazeRecording, GazeSelection, GazeSelectionStatus, select_by_gaze
     from .experiment.loading_cycle import CycleRun, CycleStatus, LoadingCycleOptions, LoadingCycleResult, loading_cycle
+    from .experiment.open_loop_study import OpenLoopExecutions, OpenLoopStatus, open_loop_executions
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment
     from .library.build import BuildSummary, build_library
+    from .library.commands import CommandSet
     from .library.selection import SelectionResult
     from .library.spec import LibrarySpec
     from .library.store import Library
@@ -178,6 +209,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .planning.planner import PlanOptions, PlanResult, PlanStatus, plan
     from .planning.trajectory import Trajectory, load_plan
     from .sim.camera import VisionOptions
+    from .sim.commands import CommandRunResult, CommandRunStatus, execute_command
     from .sim.dual import DualOptions, DualResult, DualStatus, execute_dual
     from .sim.dual_scenario import DualScenario
     from .sim.execute import ExecuteOptions, RunResult, execute

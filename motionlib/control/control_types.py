@@ -315,7 +315,7 @@ class Event:
         Time (s).
     name : str
         ``motion_start``, ``arrival``, ``abort``, ``handover``, ``stale``, ``fresh``,
-        ``nonfinite_input``, ``bad_state``.
+        ``nonfinite_input``, ``bad_state``; ``command`` (a discrete command given, :mod:`motionlib.sim.commands`).
     detail : str
     """
 

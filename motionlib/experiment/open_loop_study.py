@@ -25,6 +25,7 @@ trajectory's end point (m).
 
 from __future__ import annotations
 
+import enum
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -32,7 +33,7 @@ import numpy as np
 
 from ..checks import check_int, check_params, param
 from ..control.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
-from ..errors import InputError
+from ..errors import ExecutionError, InputError
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
@@ -113,10 +114,8 @@ def open_loop_study(
     """Evaluate open-loop execution of ``traj`` (see the module docstring)."""
     o = options or OpenLoopStudyOptions()
     rng = np.random.default_rng(o.seed)
-    gain_pos = tuple(float(g) for g in 1.0 + rng.uniform(-o.gain_error, o.gain_error, 4))
-    gain_neg = tuple(float(g) for g in 1.0 + rng.uniform(-o.gain_error, o.gain_error, 4))
-    sim_params = SimParams(valve_gain_pos=gain_pos, valve_gain_neg=gain_neg,  # type: ignore[arg-type]
-                           load_speed_loss=o.load_speed_loss)
+    sim_params = miscalibrated_crane(o.gain_error, o.load_speed_loss, rng)
+    gain_pos, gain_neg = sim_params.valve_gain_pos, sim_params.valve_gain_neg
     sigma = np.array([o.start_sigma_rad] * 3 + [o.start_sigma_m])
 
     def condition() -> tuple[bool, np.ndarray]:
@@ -147,6 +146,113 @@ def open_loop_study(
         closed.append(_closed_loop_error(traj, crane, scene, q0, closed_sim, k, goal))
     return OpenLoopStudy(np.array(before), np.array(after), np.array(closed), np.array(loads),
                          gain_pos, gain_neg, o)
+
+
+def miscalibrated_crane(gain_error: float, load_speed_loss: float, rng: np.random.Generator) -> SimParams:
+    """The study's machine: valve gains uniform in ``1 +- gain_error`` per joint and direction (positive
+    directions drawn first), raising functions ``load_speed_loss`` slower with a log."""
+    gain_pos = tuple(float(g) for g in 1.0 + rng.uniform(-gain_error, gain_error, 4))
+    gain_neg = tuple(float(g) for g in 1.0 + rng.uniform(-gain_error, gain_error, 4))
+    return SimParams(valve_gain_pos=gain_pos, valve_gain_neg=gain_neg,  # type: ignore[arg-type]
+                     load_speed_loss=load_speed_loss)
+
+
+class OpenLoopStatus(enum.Enum):
+    """Outcome of :func:`open_loop_executions`."""
+
+    CONTRACTED = "contracted"  # the last execution's tip error is below the first's
+    NOT_CONTRACTED = "not_contracted"
+
+
+@dataclass(frozen=True)
+class OpenLoopExecutions:
+    """Result of :func:`open_loop_executions`: one row per execution, in order.
+
+    Attributes
+    ----------
+    status : OpenLoopStatus
+    joint_error : ndarray, shape (n, 4)
+        End error ``goal - q_end`` per joint (rad, rad, rad, m) of each execution, before it is learned from.
+    tip_error_m : ndarray, shape (n,)
+        Distance (m) of the tip at rest from the trajectory's end point.
+    contraction : ndarray, shape (n - 1,)
+        ``tip_error_m[k] / tip_error_m[k - 1]``.
+    predicted_contraction : ndarray, shape (4,)
+        ``|1 - g_i L|`` per joint (module :mod:`motionlib.control.open_loop`): ``g_i`` the machine's valve
+        gain in the direction the joint moves in the trajectory (1 for a joint that does not), ``L`` the
+        learning gain.
+    loaded : bool
+    valve_gain_pos, valve_gain_neg : tuple of 4 float
+    learning_gain : float
+    """
+
+    status: OpenLoopStatus
+    joint_error: np.ndarray
+    tip_error_m: np.ndarray
+    contraction: np.ndarray
+    predicted_contraction: np.ndarray
+    loaded: bool
+    valve_gain_pos: tuple[float, ...]
+    valve_gain_neg: tuple[float, ...]
+    learning_gain: float
+
+    @property
+    def message(self) -> str:
+        first, last = self.tip_error_m[0], self.tip_error_m[-1]
+        verb = "contracted" if self.status is OpenLoopStatus.CONTRACTED else "did not contract"
+        return (f"the tip error {verb} from {first:.4f} m to {last:.4f} m over {self.tip_error_m.size} open-loop "
+                "executions")
+
+    def raise_for_status(self) -> OpenLoopExecutions:
+        """Return self when the error contracted, else raise :class:`ExecutionError`."""
+        if self.status is not OpenLoopStatus.CONTRACTED:
+            raise ExecutionError(self.message)
+        return self
+
+
+def open_loop_executions(
+    traj: Trajectory, crane: Crane, n: int, *, loaded: bool = False, gain_error: float = 0.12,
+    load_speed_loss: float = 0.10, seed: int = 0, open_loop: OpenLoopOptions | None = None,
+) -> OpenLoopExecutions:
+    """Execute ``traj`` ``n`` times open loop, learning from each end (003 Paper II, trajectory modification).
+
+    The machine is the study's (:func:`miscalibrated_crane`, valve gains drawn with ``seed``); each
+    execution starts at the trajectory's start, carries the load case ``loaded``, runs the modified
+    feed-forward commands (:meth:`TrajectoryModification.execute`) and learns from its end.
+
+    Parameters
+    ----------
+    traj : Trajectory
+    crane : Crane
+    n : int
+        Executions, >= 2.
+    loaded : bool
+        The grapple carries a log (the rated load).
+    gain_error, load_speed_loss : float
+        The machine's miscalibration (:class:`OpenLoopStudyOptions`; assumptions).
+    seed : int
+    open_loop : OpenLoopOptions, optional
+    """
+    check_int(n, "n", 2, 10_000)
+    check_int(seed, "seed", 0)
+    study = OpenLoopStudyOptions(gain_error=gain_error, load_speed_loss=load_speed_loss, seed=seed)  # checks them
+    params = miscalibrated_crane(study.gain_error, study.load_speed_loss, np.random.default_rng(seed))
+    params = replace(params, payload_frac=1.0 if loaded else 0.0)
+    learned = TrajectoryModification(traj, open_loop or OpenLoopOptions())
+    goal = crane.fk(traj.q[-1])
+    errors, tips = [], []
+    for _ in range(n):
+        q_end = learned.execute(SimulatedCrane(crane, traj.q[0], params), loaded, learn=True)
+        errors.append(learned.goal_q - q_end)
+        tips.append(_tip_error(crane, q_end, goal))
+    tip = np.array(tips)
+    move = traj.q[-1] - traj.q[0]
+    gains = np.where(move > 0, params.valve_gain_pos, np.where(move < 0, params.valve_gain_neg, 1.0))
+    status = OpenLoopStatus.CONTRACTED if tip[-1] < tip[0] else OpenLoopStatus.NOT_CONTRACTED
+    return OpenLoopExecutions(status, np.array(errors), tip, tip[1:] / tip[:-1],
+                              np.abs(1.0 - gains * learned.options.learning_gain), bool(loaded),
+                              tuple(params.valve_gain_pos), tuple(params.valve_gain_neg),
+                              learned.options.learning_gain)
 
 
 def _tip_error(crane: Crane, q_end: np.ndarray, goal: np.ndarray) -> float:

@@ -40,7 +40,7 @@ from .camera import VisionOptions, simulated_camera, tip_goal, vision_source
 from .contact import ContactParams
 from .hand_controller import HeldStick, StickParams
 from .loop import LoopOptions, LoopResult, run_closed_loop
-from .operators import Operator, make_operator, operator_kind
+from .operators import CommandingOperator, Operator, make_operator, operator_kind
 from .plant import SimParams, SimulatedCrane
 from .sensors import ForceSensor, Sensor, sense_calls
 
@@ -274,7 +274,8 @@ def execute(
     operator : str, Path or Operator
         ``passive``, ``novice``, ``expert``, a stick script (.csv, docs/runtime.md), or an object
         with ``input(obs) -> OperatorInput`` and ``done(obs) -> bool``
-        (:mod:`motionlib.sim.operators`).
+        (:mod:`motionlib.sim.operators`); one that also has ``attach(controller)``
+        (:class:`~motionlib.sim.operators.CommandingOperator`) is given the controller first.
     target : array_like, shape (3,), optional
         The operator's target tip point (m); default the trajectory's end, or without one the
         vision source's goal for the tip (``options.vision``).
@@ -341,6 +342,8 @@ def execute(
             op = HeldStick(op, controller.status, opts.stick, feedback.deflection_max_rad, opts.controller.dt_s)
     else:
         op = operator
+    if isinstance(op, CommandingOperator):  # its discrete commands start motions (motionlib.sim.commands)
+        op.attach(controller)
     camera = simulated_camera(vision) if vision is not None else None
     log = RunLog(
         attrs={

@@ -22,7 +22,10 @@ passed on as they are: that is how a faulty device is scripted); ``abort`` is 0 
 held). ``dropout`` (optional) is 0 or 1: 1 means the device stops sending at that row, so the
 controller's copy of the input ages and turns stale 0.1 s later. Each row holds until the
 next (zero-order hold); the last row holds until the run ends. The script is done after its
-last row's time.
+last row's time. ``command`` (optional, last) names a discrete command (003 section 5.1.1) the
+operator gives at that row's time, empty for none: a run with a command set
+(:func:`motionlib.sim.commands.execute_command`) then selects the bound motion from the current
+configuration and starts it; :attr:`ScriptedStick.commands` holds them.
 
 Simulated operators (:class:`SimulatedOperator`)
 ------------------------------------------------
@@ -166,7 +169,7 @@ import random
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -205,8 +208,27 @@ _ZERO4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3 = (0.0, 0.0, 0.0)
 
 
-SCRIPT_COLUMNS: tuple[str, ...] = ("t", "left_x", "left_y", "right_x", "right_y", "abort", "dropout")
-"""Columns of a stick script; ``dropout`` may be left out."""
+SCRIPT_COLUMNS: tuple[str, ...] = ("t", "left_x", "left_y", "right_x", "right_y", "abort", "dropout", "command")
+"""Columns of a stick script; ``dropout`` and ``command`` may be left out."""
+
+
+@dataclass(frozen=True)
+class ScriptCommand:
+    """A discrete command of a stick script (its ``command`` column).
+
+    Attributes
+    ----------
+    t : float
+        Time (s) of the row that gives it.
+    name : str
+        The command's name (bound to a target by a command set, :mod:`motionlib.library.commands`).
+    line : int
+        Line of the script file (0 for rows given in code).
+    """
+
+    t: float
+    name: str
+    line: int = 0
 
 
 class Observation:
@@ -249,6 +271,24 @@ class Operator(Protocol):
     def done(self, obs: Observation) -> bool:
         """The operator has finished (the run may settle)."""
         ...
+
+
+@runtime_checkable
+class CommandingOperator(Protocol):
+    """An operator that gives discrete commands (starts automated motions itself, 003 section 5.1.1).
+
+    :func:`~motionlib.sim.execute.execute` calls :meth:`attach` with the run's controller before the
+    first step; the operator then starts motions from ``input`` with
+    :meth:`SharedController.start_motion <motionlib.control.controller.SharedController.start_motion>`,
+    as the experiment's task does (:class:`motionlib.experiment.task.LoadingTask`).
+    """
+
+    def input(self, obs: Observation) -> OperatorInput: ...
+
+    def done(self, obs: Observation) -> bool: ...
+
+    def attach(self, controller: Any) -> None:
+        """The controller the operator's commands go to."""
 
 
 @dataclass(frozen=True)
@@ -310,9 +350,13 @@ class ScriptedStick:
         ``t, left_x, left_y, right_x, right_y, abort[, dropout]``; ``t`` finite and strictly
         increasing, ``abort`` and ``dropout`` 0 or 1; axes may be anything (NaN, inf, ...).
     name : str
+    commands : sequence of ScriptCommand, optional
+        Discrete commands given at row times (the ``command`` column).
+    source : str, optional
+        File the script was read from (for messages).
     """
 
-    def __init__(self, rows: Any, name: str = "script"):
+    def __init__(self, rows: Any, name: str = "script", commands: Any = (), source: str = ""):
         arr = np.asarray(rows, dtype=np.float64)
         if arr.ndim != 2 or arr.shape[1] not in (6, 7) or arr.shape[0] == 0:
             raise InputError(f"rows: expected an (n, 6) or (n, 7) array, got shape {arr.shape}")
@@ -325,6 +369,10 @@ class ScriptedStick:
             if not np.all(np.isin(arr[:, col], (0.0, 1.0))):
                 raise InputError(f"rows: {what} must be 0 or 1")
         self.name = name
+        self.source = source
+        self.commands: tuple[ScriptCommand, ...] = tuple(commands)
+        if any(not isinstance(c, ScriptCommand) for c in self.commands):
+            raise InputError("commands: expected ScriptCommand objects")
         self._t = t.tolist()
         self._axes = [tuple(r) for r in arr[:, 1:5].tolist()]
         self._abort = (arr[:, 5] == 1.0).tolist()
@@ -357,26 +405,30 @@ class ScriptedStick:
             # One line at a time: a quote left open must not run on into the next line (strict: an error).
             header = [h.strip() for h in next(csv.reader([lines[0][1]], strict=True))]
             required = list(SCRIPT_COLUMNS[:6])
-            if header[:6] != required or header[6:] not in ([], ["dropout"]):
+            if header[:6] != required or header[6:] not in ([], ["dropout"], ["command"], ["dropout", "command"]):
                 raise ModelFileError(
-                    f"{path}:{lineno}: expected the header {','.join(required)}[,dropout], "
+                    f"{path}:{lineno}: expected the header {','.join(required)}[,dropout][,command], "
                     f"got {short(','.join(header))}"
                 )
-            rows = []
+            numeric = len(header) - (header[-1] == "command")
+            rows, commands = [], []
             for lineno, line in lines[1:]:
                 fields = next(csv.reader([line], strict=True))
                 if len(fields) != len(header):
                     raise ModelFileError(f"{path}:{lineno}: expected {len(header)} values, got {len(fields)}")
                 try:
-                    rows.append([float(x) for x in fields])
+                    rows.append([float(x) for x in fields[:numeric]])
                 except ValueError as exc:
                     raise ModelFileError(f"{path}:{lineno}: expected numbers, got {short(','.join(fields))}") from exc
+                command = fields[numeric].strip() if numeric < len(fields) else ""
+                if command:
+                    commands.append(ScriptCommand(rows[-1][0], command, lineno))
         except csv.Error as exc:
             raise ModelFileError(f"{path}:{lineno}: not CSV ({exc})") from exc
         if not rows:
             raise ModelFileError(f"{path}: no samples after the header")
         try:
-            return cls(rows, name=f"script:{path.name}")
+            return cls(rows, name=f"script:{path.name}", commands=commands, source=str(path))
         except InputError as exc:
             raise ModelFileError(f"{path}: {exc}") from exc
 
@@ -703,4 +755,8 @@ def make_operator(
         return PassiveOperator()
     if kind == "preset":
         return SimulatedOperator.preset(spec, goal_p, mode, joystick, crane, seed=seed, via=via)
-    return ScriptedStick.load(spec)
+    script = ScriptedStick.load(spec)
+    if script.commands:
+        raise InputError(f"{spec}:{script.commands[0].line}: the script gives command {script.commands[0].name!r}; "
+                         "commands need a command set (motionlib execute --commands, docs/commands.md)")
+    return script

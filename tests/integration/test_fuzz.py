@@ -25,7 +25,7 @@ import fuzz  # noqa: E402
 SEED = 20261123  # fixed: the sample is the same on every run
 #: Inputs per reader through the API (about 2,600 in all; the slower HDF5 readers get fewer).
 N_API = {"crane": 500, "scene": 400, "spec": 300, "script": 500, "plan": 250, "library": 250, "runlog": 300,
-         "checkpoint": 100}
+         "checkpoint": 100, "commands": 300, "gaze": 300}
 N_CLI = 25  # per command below
 
 
