@@ -194,8 +194,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .analysis.work_analysis import WorkAnalysis, analyze_recording
     from .control.accommodation import AccommodationOptions
     from .control.control_types import Mode
-    from .control.ros_export import RosExport, export_ros
     from .control.gaze_recording import GazeRecording, GazeSelection, GazeSelectionStatus, select_by_gaze
+    from .control.ros_export import RosExport, export_ros
     from .experiment.loading_cycle import CycleRun, CycleStatus, LoadingCycleOptions, LoadingCycleResult, loading_cycle
     from .experiment.open_loop_study import OpenLoopExecutions, OpenLoopStatus, open_loop_executions
     from .experiment.runner import ExperimentConfig, ExperimentReport, log_loading_experiment

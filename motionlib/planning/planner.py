@@ -1086,14 +1086,14 @@ class Planner:
                       f"[{crane.q_min[0]}, {crane.q_max[0]}] rad")
             return _Candidate(spline, s_grid, {}, {}, {"path": reason}), {"status": "slew", "reason": reason}
         rotators: dict[str, TelescopeProfile] = {}
+        profiles: dict[str, TelescopeProfile] = {}
         if joint_q is not None and initial is not None:
-            profiles = {JOINT_PROFILE: initial}
+            profiles[JOINT_PROFILE] = initial
             q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators, joint_q)
             details = {"status": "skipped", "reason": OFF_BRANCH_REASON, "rejected": rejected}
             return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), details
         red = optimise_telescope(crane, spline, start_q[0], start_q[3], o.redundancy, initial=initial)
         details = {**red.diagnostics, "status": red.status.value, "reason": red.reason}
-        profiles: dict[str, TelescopeProfile] = {}
         if red.status is RedundancyStatus.OK and red.profile is not None:
             profiles["optimised"] = red.profile
             if initial is None:
