@@ -41,6 +41,7 @@ COMMANDS: dict[str, str] = {
     "scene": "scene:scene",
     "plan": "plan:plan",
     "view": "view:view",
+    "live": "live:live",
     "build": "build:build",
     "select": "select:select",
     "inspect": "inspect:inspect",

@@ -18,6 +18,8 @@ loading_cycle(LoadingCycleOptions(...), out_dir) -> LoadingCycleResult
     The forwarder loading cycle (S6-S9 of 003 Table 3.1) over a pile's logs, automation and model operators.
 write_view(path, output) -> ViewResult
     A self-contained 3D page of a plan, library or run log (:mod:`motionlib.viz`).
+live(library, LiveOptions(...)) -> LiveServer
+    A local web page to point and go: the library motion for a clicked point runs in the 200 Hz loop, shown live.
 analyze_recording(path) -> WorkAnalysis
     Recorded crane work split into the states of 003 Table 3.1, with its statistics (:mod:`motionlib.analysis`).
 replan_recording(recording) -> ReplanReport
@@ -78,6 +80,7 @@ _EXPORTS: dict[str, str] = {
     "log_loading_experiment": "motionlib.experiment.runner",
     "loading_cycle": "motionlib.experiment.loading_cycle",
     "write_view": "motionlib.viz.viewer",
+    "live": "motionlib.viz.live",
     "analyze_recording": "motionlib.analysis.work_analysis",
     "replan_recording": "motionlib.analysis.replan",
     "export_ros": "motionlib.control.ros_export",
@@ -113,6 +116,9 @@ _EXPORTS: dict[str, str] = {
     "CycleRun": "motionlib.experiment.loading_cycle",
     "CycleStatus": "motionlib.experiment.loading_cycle",
     "ViewOptions": "motionlib.viz.viewer",
+    "LiveOptions": "motionlib.viz.live",
+    "LiveServer": "motionlib.viz.live",
+    "LiveState": "motionlib.viz.live",
     "WorkAnalysis": "motionlib.analysis.work_analysis",
     "ReplanReport": "motionlib.analysis.replan",
     "RosExport": "motionlib.control.ros_export",
@@ -134,6 +140,7 @@ __all__ = [
     "log_loading_experiment",
     "loading_cycle",
     "write_view",
+    "live",
     "analyze_recording",
     "replan_recording",
     "export_ros",
@@ -168,6 +175,9 @@ __all__ = [
     "CycleRun",
     "CycleStatus",
     "ViewOptions",
+    "LiveOptions",
+    "LiveServer",
+    "LiveState",
     "WorkAnalysis",
     "ReplanReport",
     "RosExport",
@@ -213,6 +223,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs only
     from .sim.dual import DualOptions, DualResult, DualStatus, execute_dual
     from .sim.dual_scenario import DualScenario
     from .sim.execute import ExecuteOptions, RunResult, execute
+    from .viz.live import LiveOptions, LiveServer, LiveState, live
     from .viz.viewer import ViewOptions, write_view
 
 

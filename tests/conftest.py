@@ -8,7 +8,7 @@ Tests marked ``notebook``, ``browser`` or ``cluster`` are also ``slow``, so that
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +27,16 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "seeded"))
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED_CRANES = ("lab", "forwarder")
 SLOW_KINDS = ("notebook", "browser", "cluster")
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_FLAGS = (
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+)
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
@@ -117,3 +127,37 @@ def export_inputs(rotator_plan, tmp_path_factory) -> dict[str, Path]:
                 log.append_rotator(0.5 * np.sin(t[k]), 0.5 * np.cos(t[k]), 0.0)
         files[name] = write_runlog(folder / f"{name}.h5", log, model)
     return files
+
+
+@pytest.fixture(scope="module")
+def chromium() -> Iterator[Any]:
+    """Debian's Chromium driven by Playwright, for the ``browser`` tests; .ci/run installs it (apt) before the tests.
+
+    Without /usr/bin/chromium the browser tests are skipped, unless MOTIONLIB_REQUIRE_BROWSER=1
+    (set by .ci/run), which makes a missing browser a failure.
+    """
+    if not CHROMIUM.exists():
+        if os.environ.get("MOTIONLIB_REQUIRE_BROWSER") == "1":
+            pytest.fail(f"{CHROMIUM} is missing (install Debian's chromium: see .ci/run)")
+        pytest.skip(f"{CHROMIUM} is missing (install Debian's chromium to run the browser tests)")
+    from playwright.sync_api import sync_playwright  # only where a browser test runs
+
+    with sync_playwright() as pw:
+        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=list(CHROMIUM_FLAGS))
+        try:
+            yield browser
+        finally:
+            browser.close()
+
+
+@pytest.fixture(scope="session")
+def live_library(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """libraries/live-demo.yaml built: the lab crane out to pickup-a and pickup-b and back with a log (4 motions)."""
+    from click.testing import CliRunner
+    from motionlib_cli.main import cli
+
+    out = tmp_path_factory.mktemp("live") / "live-demo.h5"
+    spec = Path(__file__).resolve().parents[1] / "libraries" / "live-demo.yaml"
+    result = CliRunner().invoke(cli, ["build", str(spec), "-o", str(out), "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    return out

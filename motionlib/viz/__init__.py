@@ -8,6 +8,8 @@ meshes
     Triangle meshes of obstacles and capsules.
 viewer
     Self-contained plotly HTML pages of plans, libraries and run logs.
+live, live_scene
+    The live view: a local web page (viser) to point and go while the closed loop runs.
 dual_plots
     Figures of a dual-crane run: the internal force, the log's tracking and a top view.
 dual_view

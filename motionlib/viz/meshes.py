@@ -125,6 +125,26 @@ def z_to(direction: np.ndarray) -> np.ndarray:
     return np.column_stack([e1, np.cross(u, e1), u])
 
 
+def hang_rotation(down: np.ndarray) -> np.ndarray:
+    """The rotation matrix (3, 3) of least angle taking the downward vertical ``-z`` onto ``down`` (3,).
+
+    Rodrigues' formula for the rotation between unit vectors ``a = -z`` and ``b``:
+    ``R = I + [v]x + [v]x^2 / (1 + c)``, ``v = a x b``, ``c = a . b``. It turns a body hanging
+    below a pivot (the grapple below the tip) out to a swing along ``down`` without turning it
+    about the vertical; identity for a zero vector, a half turn about x for ``+z``.
+    """
+    length = float(np.linalg.norm(down))
+    if length < 1e-12:
+        return np.eye(3)
+    b = np.asarray(down, dtype=np.float64) / length
+    c = -b[2]  # (-z) . b
+    if c <= -1.0 + 1e-12:
+        return np.diag([1.0, -1.0, -1.0])
+    v = np.array([b[1], -b[0], 0.0])  # (-z) x b
+    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+
+
 class CapsuleMesh:
     """A capsule mesh of fixed radius whose end points move (crane links, grapple, log).
 

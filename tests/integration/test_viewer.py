@@ -13,7 +13,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import os
 import re
 import shutil
 from collections.abc import Iterator
@@ -28,7 +27,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from motionlib_cli.main import cli
 from PIL import Image
-from playwright.sync_api import sync_playwright
 
 from motionlib.control.control_types import Authority
 from motionlib.control.runlog import read_runlog
@@ -51,16 +49,6 @@ from motionlib.viz.viewer import (
 )
 
 ROOT = Path(__file__).resolve().parents[2]
-CHROMIUM = Path("/usr/bin/chromium")
-CHROMIUM_FLAGS = (
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-)
 VIEWPORT = (760, 540)
 
 
@@ -239,25 +227,6 @@ def test_view_errors(tmp_path):
 
 
 # ============================================================ browser
-@pytest.fixture(scope="module")
-def chromium() -> Iterator[Any]:
-    """Debian's Chromium driven by Playwright; .ci/run installs it (apt) before the tests.
-
-    Without /usr/bin/chromium the browser tests are skipped, unless MOTIONLIB_REQUIRE_BROWSER=1
-    (set by .ci/run), which makes a missing browser a failure.
-    """
-    if not CHROMIUM.exists():
-        if os.environ.get("MOTIONLIB_REQUIRE_BROWSER") == "1":
-            pytest.fail(f"{CHROMIUM} is missing (install Debian's chromium: see .ci/run)")
-        pytest.skip(f"{CHROMIUM} is missing (install Debian's chromium to run the browser tests)")
-    with sync_playwright() as pw:
-        browser = pw.chromium.launch(executable_path=str(CHROMIUM), args=list(CHROMIUM_FLAGS))
-        try:
-            yield browser
-        finally:
-            browser.close()
-
-
 @contextlib.contextmanager
 def page_of(chromium: Any, html: Path) -> Iterator[Any]:
     """A page showing ``html`` in an offline context of the viewport's size (the page must need no network)."""

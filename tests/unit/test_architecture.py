@@ -19,7 +19,7 @@ _LAYERS = tuple(
     for layer in tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"][0]["layers"]
     if "|" not in layer
 )
-JOBS = ("plan", "build_library", "execute", "execute_dual", "log_loading_experiment", "write_view")
+JOBS = ("plan", "build_library", "execute", "execute_dual", "log_loading_experiment", "write_view", "live")
 
 
 def test_layers_never_import_upward():

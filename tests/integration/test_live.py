@@ -1,0 +1,199 @@
+"""The live view (motionlib.viz.live): point and go on a page in headless Chromium while the closed loop runs.
+
+References: the crane's tip after each motion from the kinematics (``Crane.fk`` of the configuration
+the server reports) against the selected library entry's stored end point, within the path
+tracker's arrival tolerance; the page's status line against the server's state; the clicked point
+against the camera's look-at point (the click at the canvas centre casts the ray through it); the
+port and the threads after stop against those before the start. The grapple's swing rotation
+against its defining properties.
+"""
+
+from __future__ import annotations
+
+import re
+import socket
+import threading
+import time
+import urllib.request
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motionlib.control.tracker import TrackerParams
+from motionlib.errors import InputError
+from motionlib.library.selection import DEFAULT_L1_M
+from motionlib.library.store import Library
+from motionlib.viz.live import LiveOptions, LiveServer, LiveStatus, live
+from motionlib.viz.meshes import hang_rotation
+
+VIEWPORT = (900, 600)
+STATUS = re.compile(
+    r"\*?\*?(\w+)\*?\*? \((M\d), (\w+) operator\)\s+(.*?)\s+"
+    r"t = ([-\d.]+) s, tip \(([-\d.]+), ([-\d.]+), ([-\d.]+)\) m, swing ([-\d.]+) rad, update (\d+)",
+    re.S,
+)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(-5, 5), min_size=3, max_size=3).filter(lambda d: np.linalg.norm(d) > 1e-3))
+def test_hang_rotation_turns_the_vertical_onto_the_swing_without_twist(d):
+    d = np.array(d)
+    rot = hang_rotation(d)
+    u = d / np.linalg.norm(d)
+    np.testing.assert_allclose(rot.T @ rot, np.eye(3), atol=1e-9)
+    assert np.linalg.det(rot) == pytest.approx(1.0)
+    np.testing.assert_allclose(rot @ [0.0, 0.0, -1.0], u, atol=1e-9)
+    axis = np.cross([0.0, 0.0, -1.0], u)  # the least rotation turns about this axis: it stays put
+    np.testing.assert_allclose(rot @ axis, axis, atol=1e-9)
+    np.testing.assert_allclose(hang_rotation(np.zeros(3)), np.eye(3))
+
+
+@pytest.mark.parametrize(
+    "bad, message",
+    [
+        ({"port": -1}, "port"),
+        ({"port": 70000}, "port"),
+        ({"mode": "M9"}, "M9"),
+        ({"utility": "speed"}, "utility"),
+        ({"update_hz": 0.0}, "update_hz"),
+        ({"operator": "nobody"}, "operator"),
+        ({"time_limit_s": -1.0}, "time_limit_s"),
+    ],
+)
+def test_live_options_reject_bad_input(bad, message):
+    with pytest.raises(InputError, match=message):
+        LiveOptions(**bad)
+
+
+def port_open(port: int) -> bool:
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def serves_page(url: str) -> bool:
+    with urllib.request.urlopen(url, timeout=30) as response:
+        return response.status == 200 and b"<title>Viser</title>" in response.read()
+
+
+def wait_for(predicate, timeout_s: float = 60.0) -> None:
+    end = time.monotonic() + timeout_s
+    while not predicate():
+        assert time.monotonic() < end, "timed out"
+        time.sleep(0.05)
+
+
+@pytest.mark.slow
+def test_a_port_in_use_is_refused(live_library):
+    with live(live_library, LiveOptions(port=0)) as first:
+        assert first.url == f"http://127.0.0.1:{first.port}/" and serves_page(first.url)
+        with pytest.raises(InputError, match=f"port: {first.port} on 127.0.0.1 is in use"):
+            LiveServer(live_library, LiveOptions(port=first.port))
+    assert not port_open(first.port)
+
+
+def page_status(page) -> re.Match:
+    text = page.evaluate("document.body.innerText")
+    match = STATUS.search(text)
+    assert match, text
+    return match
+
+
+def assert_arrived(server: LiveServer, page, lib: Library, start: str) -> None:
+    """The server and the page say the selected motion, from the scene's start ``start``, settled at its end point."""
+    state = server.state
+    assert state.status is LiveStatus.SETTLED, state.message
+    row = state.row
+    np.testing.assert_allclose(lib.start_q[row], lib.scene.starts[start], atol=1e-6)  # from where the crane was
+    assert np.linalg.norm(lib.end_p[row] - state.target) <= DEFAULT_L1_M  # to the commanded point (003 eq. 5.3)
+    tip = lib.crane.fk(state.q)  # the kinematics, from the configuration the simulated crane reached
+    assert np.linalg.norm(tip - lib.end_p[row]) <= TrackerParams().arrive_tol_m
+    np.testing.assert_allclose(state.tip, tip, atol=1e-9)  # the plant's tip is the kinematics' tip
+    page.wait_for_function(f"document.body.innerText.includes('update {state.updates}')", timeout=30_000)
+    shown = page_status(page)
+    assert shown.group(1) == "settled" and shown.group(2) == "M6" and shown.group(3) == "passive"
+    assert f"row {row} settled" in shown.group(4)
+    np.testing.assert_allclose([float(shown.group(k)) for k in (6, 7, 8)], tip, atol=6e-4)  # 3 decimals
+
+
+def shown_update(page) -> int:
+    return int(page_status(page).group(10))
+
+
+@pytest.mark.browser
+def test_point_and_go_in_chromium(live_library, chromium, tmp_path):
+    lib = Library.open(live_library)
+    threads_before = set(threading.enumerate())
+    pickup = np.array(lib.scene.points["pickup-a"])
+    server = live(live_library, LiveOptions(port=0, click_height_m=float(pickup[2])))
+    port = server.port
+    assert serves_page(server.url)
+    off_machine = []
+    context = chromium.new_context(viewport={"width": VIEWPORT[0], "height": VIEWPORT[1]})
+    try:
+        # Nothing but this server: every other request is refused (and recorded).
+        def only_here(route):
+            url = route.request.url
+            if url.startswith((f"http://127.0.0.1:{port}", f"ws://127.0.0.1:{port}", "data:", "blob:")):
+                route.continue_()
+            else:
+                off_machine.append(url)
+                route.abort()
+
+        context.route("**/*", only_here)
+        page = context.new_page()
+        # The camera looks at pickup-a: a click at the canvas centre casts its ray through that point.
+        eye = pickup + [4.0, -4.0, 5.0]
+        page.goto(
+            f"{server.url}?initialCameraPosition={','.join(map(str, eye))}"
+            f"&initialCameraLookAt={','.join(map(str, pickup))}"
+        )
+        page.wait_for_function("document.body.innerText.includes('idle (M6, passive operator)')", timeout=60_000)
+        page.wait_for_selector("canvas", timeout=60_000)
+        page.wait_for_timeout(1000)
+        canvas = page.locator("canvas").first.bounding_box()
+        page.mouse.click(canvas["x"] + canvas["width"] / 2, canvas["y"] + canvas["height"] / 2)
+        wait_for(lambda: server.state.status is not LiveStatus.IDLE, 30.0)
+        assert server.state.status is LiveStatus.RUNNING, server.state.message
+        np.testing.assert_allclose(server.state.target, pickup, atol=0.02)  # the click went through pickup-a
+        assert not server.go_to_point("target-center")  # refused while the motion runs
+        page.wait_for_function("document.body.innerText.includes('running (M6')", timeout=30_000)
+        moving = [shown_update(page)]
+        page.wait_for_timeout(1000)
+        moving.append(shown_update(page))  # the page follows the running loop
+        wait_for(lambda: server.state.status is not LiveStatus.RUNNING)
+        assert_arrived(server, page, lib, start="target-center")
+        first = server.state
+
+        # A named point's button: back to target-center from where the crane now is.
+        page.get_by_role("button", name="target-center").click()
+        wait_for(lambda: server.state.motions == 2)
+        assert_arrived(server, page, lib, start="pickup-a")
+        np.testing.assert_allclose(server.state.target, lib.scene.points["target-center"])
+        assert moving[1] > moving[0], moving
+        assert 0.0 < first.paced_factor <= 1.01 and 0.0 < server.state.paced_factor <= 1.01  # never ahead of real time
+        (tmp_path / "live.png").write_bytes(page.screenshot())  # (with path=, Playwright writes from a thread)
+    finally:
+        context.close()
+        server.stop()
+    assert off_machine == []
+    assert server.state.status is LiveStatus.STOPPED and not port_open(port)
+    wait_for(lambda: set(threading.enumerate()) <= threads_before, 10.0)  # viser's pool threads end on their own
+
+
+@pytest.mark.slow
+def test_stop_abandons_a_running_motion(live_library):
+    threads_before = set(threading.enumerate())
+    server = live(live_library, LiveOptions(port=0))
+    port = server.port
+    assert server.go_to_point("pickup-a")
+    wait_for(lambda: server.state.status is LiveStatus.RUNNING and server.state.t_s > 0.5, 30.0)
+    moved = server.state
+    server.stop()
+    server.stop()  # idempotent
+    state = server.state
+    assert state.status is LiveStatus.STOPPED and state.motions == 0 and state.t_s >= moved.t_s
+    assert not np.allclose(state.q, Library.open(live_library).start_q[0])  # it had moved, and stopped there
+    assert not port_open(port) and not server.go_to_point("target-center")
+    wait_for(lambda: set(threading.enumerate()) <= threads_before, 10.0)
