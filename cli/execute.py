@@ -12,21 +12,17 @@ from typing import Any
 
 import click
 
-from .options import RUN_TIME_LIMIT_S, VECTOR_LIMIT, FiniteFloatRange, json_option, mode_option, vector_option
+from .options import (
+    RUN_TIME_LIMIT_S,
+    VECTOR_LIMIT,
+    FiniteFloatRange,
+    json_option,
+    mode_option,
+    operator_option,
+    vector_option,
+)
 from .output import emit_json, tty_steps
 from .targets import check_target_options, open_loop_report, select_row
-
-
-def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
-    """The ``--operator`` spec, checked when the option is parsed: before the runtime and the library are loaded."""
-    from motionlib.errors import InputError
-    from motionlib.sim.operators import operator_kind
-
-    try:
-        operator_kind(value)
-    except InputError as exc:
-        raise click.BadParameter(str(exc).removeprefix("operator: "), ctx, param) from exc
-    return value
 
 
 @click.command()
@@ -43,8 +39,7 @@ def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> s
               help="Execute the selected trajectory N times open loop with trajectory modification (003 Paper II) "
               "instead of the closed loop; report each execution's end error.")
 @mode_option
-@click.option("--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
-              help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).")
+@operator_option
 @vector_option("current", 4, "Current configuration q1,q2,q3,q4 (rad, rad, rad, m); default: the selected "
                "trajectory's start.")
 @click.option("--utility", type=click.Choice(["time", "energy", "robust"]),

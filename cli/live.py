@@ -8,7 +8,7 @@ from typing import Any
 
 import click
 
-from .options import RUN_TIME_LIMIT_S, FiniteFloatRange, mode_option, vector_option
+from .options import RUN_TIME_LIMIT_S, FiniteFloatRange, mode_option, operator_option, vector_option
 
 
 @click.command()
@@ -27,13 +27,7 @@ from .options import RUN_TIME_LIMIT_S, FiniteFloatRange, mode_option, vector_opt
     help="TCP port; 0 takes a free port (printed).",
 )
 @mode_option
-@click.option(
-    "--operator",
-    "operator_spec",
-    default="passive",
-    show_default=True,
-    help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).",
-)
+@operator_option
 @click.option(
     "--utility",
     type=click.Choice(["time", "energy", "robust"]),

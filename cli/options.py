@@ -97,6 +97,26 @@ def mode_option(f: F) -> F:
     )(f)
 
 
+def _check_operator(ctx: click.Context, param: click.Parameter, value: str) -> str:
+    """The ``--operator`` spec, checked when the option is parsed: before the runtime and the library are loaded."""
+    from motionlib.errors import InputError
+    from motionlib.sim.operators import operator_kind
+
+    try:
+        operator_kind(value)
+    except InputError as exc:
+        raise click.BadParameter(str(exc).removeprefix("operator: "), ctx, param) from exc
+    return value
+
+
+def operator_option(f: F) -> F:
+    """``--operator passive|novice|expert|FILE.csv`` (parameter ``operator_spec``), checked when parsed."""
+    return click.option(
+        "--operator", "operator_spec", default="passive", show_default=True, callback=_check_operator,
+        help="passive, novice, expert, or a stick script (.csv, format in docs/runtime.md).",
+    )(f)
+
+
 def format_q(q: np.ndarray) -> str:
     """``q1=... rad, ..., q4=... m``."""
     return ", ".join(f"q{i + 1}={v:.6f} {'m' if i == 3 else 'rad'}" for i, v in enumerate(q))
