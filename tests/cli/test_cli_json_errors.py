@@ -23,6 +23,7 @@ FAILING = {
     "execute": ["execute", "{m}.h5", "--target", "0,3,0.9"],
     "experiment loading-cycle": ["experiment", "loading-cycle", "--spec", "{m}.yaml", "--out", "{m}-out"],
     "experiment log-loading": ["experiment", "log-loading", "--library", "{m}.h5", "--out", "{m}-out"],
+    "export": ["export", "{m}.h5", "-o", "{m}.mcap"],
     "fk": ["fk", "--crane", "{m}.yaml", "--q", "0,0,0,0"],
     "ik": ["ik", "--crane", "{m}.yaml", "--target", "2,0,1"],
     "inspect": ["inspect", "{m}.h5"],

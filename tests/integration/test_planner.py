@@ -253,11 +253,15 @@ def test_no_path_within_budget(lab, lab_scene):
     assert res.trajectory is None
 
 
-def test_ipopt_not_converged(lab, lab_scene):
-    opts = PlanOptions(redundancy=RedundancyOptions(max_iter=1))
+def test_ipopt_not_converged_is_reported_and_the_fallback_profiles_are_tried(lab, lab_scene):
+    """An NLP that does not converge is no profile: its reason is kept, and the linear fallback profiles are tried."""
+    opts = PlanOptions(redundancy=RedundancyOptions(max_iter=1), joint_candidates=False)
     res = Planner(lab, lab_scene, opts).plan(lab_scene.start("target-center"), lab_scene.point("pickup-b"))
-    assert res.status is PlanStatus.REDUNDANCY_FAILED and "IPOPT did not converge" in res.reason
-    assert res.trajectory is None
+    details = res.stages["redundancy"].details["tip-rrt"]
+    assert details["status"] == "solver_failed" and "IPOPT did not converge" in details["reason"]
+    assert "IPOPT did not converge" in details["rejected"]["optimised"]
+    res.raise_for_status()
+    assert res.trajectory.info.profile.startswith("fallback-linear-to-")
 
 
 def test_toppra_failure_is_reported(lab, lab_scene):

@@ -67,7 +67,7 @@ def test_a_log_lifted_off_a_pile_is_carried_away_clear_of_contact_and_keeps_the_
     assert not exact.configurations_in_collision(traj.q, True).any()  # dense re-check, every 5 ms sample
     tips = crane.fk_batch(traj.q[:, :4])
     away = np.linalg.norm(tips - crane.fk(start), axis=1) > o.start_escape_m
-    assert away.sum() > 0.8 * len(tips)
+    assert away.sum() > 0.5 * len(tips)
     # beyond the ball the searches' margins hold again (up to the spline's sag between its checked points)
     clearance = np.array([exact.tip_clearance(p, True) for p in tips[away][::10]])
     assert clearance.min() > 0.5 * o.clearance_m

@@ -57,7 +57,7 @@ def test_settled_law_arrives_still_within_the_limits_and_no_faster_than_toppra(l
     t, q, qd, qdd = samples(settled)
     swing = predict_swing(lab, t, q, qd, pendulum, TOL)
     assert swing.residual_rad <= 1.1 * SWING_MARGIN * TOL  # scipy's exact FOH on 5 ms samples, not the grid's
-    assert swing.peak_rad <= 0.2 * 1.05
+    assert swing.peak_rad <= 0.2 * 1.1  # bounded at the grid points (MAX_GRID): a few per cent more between them
     grid, _ = settled.grid_speeds()
     at_grid = np.searchsorted(t, np.interp(grid, settled.evaluate(t, 0), t))  # samples nearest the grid points
     for limit in limits:
