@@ -1,7 +1,7 @@
 """Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
 
 Run: ``python benchmarks/executed.py [--library PATH] [--rows 20] [--baseline] [--no-swing-settle]
-[--no-swing-damping]``
+[--no-swing-damping] [--m1]``
 
 The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):
 a motion counts when the grapple has arrived and stopped swinging, which is when
@@ -23,6 +23,10 @@ speed law of 000 section 2.3 with its look-ahead as written (``TrackerParams(tim
 lateral_gain_per_s=0)``: no cap on the pull back onto the path) with the swing damping without its dead band,
 and prints its planned and settle times and the ratio of the two settle times (this run's / the baseline's):
 how much sooner a motion is done, measured in one process.
+
+``--m1`` also runs each row's move by the model expert in manual joint operation (M1, the end point as
+target, seed 0, 60 s limit) and compares the total jerk (000 eq. 6, ``RunSummary.total_jerk``) of the
+two runs: issue 22's "the automation at least as smooth as a skilled operator".
 
 ``--no-swing-settle`` adds the old definition for comparison (``settle_swing_rad`` = 10 rad: the
 swing never holds a run up, the tip alone decides): its settle time, ratio and residual swing per row.
@@ -54,6 +58,7 @@ TARGET_RATIO_MEDIAN, TARGET_RATIO_MAX, TARGET_OVERSHOOT_M = 1.15, 1.35, 0.05
 #: ``settle_swing_rad`` of the comparison: above pi, so the swing never holds a run up.
 NO_SWING_RAD = 10.0
 TIME_LIMIT_S = 40.0
+MANUAL_TIME_LIMIT_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -66,6 +71,7 @@ class Outcome:
     overshoot_m: float
     swing_rad: float
     settled: bool
+    total_jerk: float
 
 
 def spread_rows(n_rows: int, n: int) -> np.ndarray:
@@ -84,7 +90,14 @@ def run_row(lib: Library, row: int, settle_swing_rad: float, controller: Control
     if s.planned_duration_s is None or s.settle_ratio is None or s.overshoot_m is None:
         raise RuntimeError("a library row's run has a trajectory, so its summary has these")
     return Outcome(s.planned_duration_s, s.cycle_time_s, s.settle_ratio, s.overshoot_m, s.residual_swing_rad,
-                   run.settled)
+                   run.settled, s.total_jerk)
+
+
+def manual_jerk(lib: Library, row: int) -> tuple[float, float]:
+    """Total jerk (m^2/s^5) and settle time (s) of the model expert's M1 run of row ``row``'s move."""
+    s = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M1", operator="expert", target=lib.end_p[row],
+                options=ExecuteOptions(seed=0, time_limit_s=MANUAL_TIME_LIMIT_S)).summary
+    return s.total_jerk, s.cycle_time_s
 
 
 def time_optimal(lib: Library, row: int) -> Trajectory:
@@ -109,6 +122,7 @@ def main() -> None:
     parser.add_argument("--no-swing-settle", action="store_true",
                         help="also run each row with the old settle definition (tip speed only) for comparison")
     parser.add_argument("--no-swing-damping", action="store_true", help="the controller without its swing damping")
+    parser.add_argument("--m1", action="store_true", help="also run each move by the model expert in M1 (total jerk)")
     args = parser.parse_args()
     if args.rows < 1:
         parser.error("--rows: expected >= 1")
@@ -127,9 +141,11 @@ def main() -> None:
         header += f" | {'base planned s':>14} {'base settle s':>13} {'settle / base':>13}"
     if args.no_swing_settle:
         header += f" | {'tip-only s':>10} {'ratio':>6} {'swing rad':>9} {'settled':>7}"
+    if args.m1:
+        header += f" | {'M6 jerk':>8} {'M1 jerk':>8} {'M1 settle s':>11}"
     print(header)
     print("-" * len(header))
-    new, old, base = [], [], []
+    new, old, base, manual = [], [], [], []
     before = ControllerParams(swing_damping=controller.swing_damping, swing_damping_deadband_rad=0.0)
     t0 = time.perf_counter()
     for row in rows.tolist():
@@ -146,6 +162,9 @@ def main() -> None:
             b = run_row(lib, row, NO_SWING_RAD, controller)
             old.append(b)
             line += f" | {b.settle_s:10.2f} {b.ratio:6.2f} {b.swing_rad:9.3f} {'yes' if b.settled else 'NO':>7}"
+        if args.m1:
+            manual.append(manual_jerk(lib, row))
+            line += f" | {o.total_jerk:8.0f} {manual[-1][0]:8.0f} {manual[-1][1]:11.2f}"
         print(line, flush=True)
     print("-" * len(header))
     _print_totals("swing-settled", new)
@@ -159,6 +178,11 @@ def main() -> None:
         print(f"settle time median {np.median(settle):.2f} s vs baseline {np.median(settle_b):.2f} s; per row "
               f"settle / baseline median {np.median(gain):.2f} (max {np.max(gain):.2f}); "
               f"planned / time-optimal median {np.median(cost):.2f} (max {np.max(cost):.2f})")
+    if manual:
+        jerk, jerk_m1 = np.array([o.total_jerk for o in new]), np.array([m[0] for m in manual])
+        print(f"total jerk (m^2/s^5): M6 hands off median {np.median(jerk):.0f}, model expert M1 median "
+              f"{np.median(jerk_m1):.0f}; M6 no jerkier in {int((jerk <= jerk_m1).sum())} of {jerk.size} rows "
+              f"(median ratio {np.median(jerk / jerk_m1):.2f})")
     print(f"({time.perf_counter() - t0:.0f} s wall)")
 
 
