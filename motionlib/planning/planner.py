@@ -254,8 +254,8 @@ class PlanOptions:
         ``f_n``, so the law does not ring a joint mode of that frequency (a box input shaper). Default
         ``1 / DEFAULT_NATURAL_FREQ_HZ`` = 0.4 s, one period of the joints' 2.5 Hz oil-spring mode
         (:data:`~motionlib.model.crane_model.DEFAULT_NATURAL_FREQ_HZ`, the default simulated crane's).
-        Measured on 10 rows of the log-loading library run in M6 hands off (docs/runtime.md, "Executed
-        time"): against 0.1 s the plans are 0.3 s longer, the runs settle 0.1 s sooner (median 6.19 ->
+        Measured on 10 rows of the log-loading library run in M6 hands off (docs/runtime.md, "Executing
+        shaped plans"): against 0.1 s the plans are 0.3 s longer, the runs settle 0.1 s sooner (median 6.19 ->
         6.09 s: the joints no longer ring after the stop) with a quarter of the total jerk (000 eq. 6,
         280 -> 68 m^2/s^5).
     """
