@@ -69,7 +69,11 @@ from .options import RUN_TIME_LIMIT_S, FiniteFloatRange, mode_option, operator_o
     help="Height (m) of the plane a click on the scene is projected onto [default: the median height of "
     "the library's end points].",
 )
-def live(library, host, port, mode, operator_spec, utility, seed, time_limit, update_hz, start, click_height) -> None:
+@click.option("--gaze", "gaze_files", multiple=True, type=click.Path(dir_okay=False), metavar="FILE",
+              help="A recorded head stream and its calibration (YAML, docs/commands.md): a button that selects "
+              "for where it looks, with the estimate's covariance (003 eq. 5.7, Paper III); repeatable.")
+def live(library, host, port, mode, operator_spec, utility, seed, time_limit, update_hz, start, click_height,
+         gaze_files) -> None:
     """Serve a local web page to point and go: click a point, the library motion runs live on the simulated crane.
 
     The page shows the crane of LIBRARY, its scene, the planned path and the grapple's swing. A click
@@ -88,6 +92,7 @@ def live(library, host, port, mode, operator_spec, utility, seed, time_limit, up
         utility=utility,
         seed=seed,
         time_limit_s=time_limit,
+        gaze=tuple(gaze_files),
         update_hz=update_hz,
         start_q=None if start is None else tuple(start.tolist()),
         click_height_m=click_height,

@@ -7,10 +7,11 @@ page and its scripts shipped inside the viser package: no network needed) and sh
 the simulated crane, the planned tip path and the grapple's swing (:mod:`motionlib.viz.live_scene`).
 
 The operator commands a target by clicking a point of the scene (the click's ray meets the
-horizontal plane at :attr:`LiveOptions.click_height_m`) or a button of the scene's named points.
-The library motion for it is selected from the crane's current configuration
-(:meth:`~motionlib.library.store.Library.select_checked`, 003 eqs. 5.3-5.7) and executed in the
-chosen mode with the chosen operator model (:func:`~motionlib.sim.execute.execute`, the 200 Hz
+horizontal plane at :attr:`LiveOptions.click_height_m`), a button of the scene's named points, or a
+button of a recorded head stream (:attr:`LiveOptions.gaze`: where the operator looks, 003 Paper III,
+selected with the estimate's covariance by 003 eq. 5.7). The library motion for it is selected from the
+crane's current configuration (:meth:`~motionlib.library.store.Library.select_checked`, 003 eqs. 5.3-5.7)
+and executed in the chosen mode with the chosen operator model (:func:`~motionlib.sim.execute.execute`, the 200 Hz
 controller against the simulated crane) in a background thread. The loop is advanced step by
 step, paced to real time: the loop's sensor hook (:mod:`motionlib.sim.sensors`; the pacer reads
 the plant and never changes it) waits until the wall clock has caught up with the simulated
@@ -40,6 +41,7 @@ import numpy as np
 
 from ..checks import check_scalar, check_vector
 from ..control.control_types import Mode
+from ..control.gaze_recording import GazeRecording
 from ..errors import InputError, MotionlibError
 from ..library.selection import Utility
 from ..library.store import Library
@@ -80,6 +82,10 @@ class LiveOptions:
         median height of the library's end points.
     segments : int
         Facets around each round shape drawn.
+    gaze : tuple of str
+        Gaze files (:class:`~motionlib.control.gaze_recording.GazeRecording`, docs/commands.md): a button each
+        that selects for where the recorded head looks, with the estimate's covariance (003 eq. 5.7,
+        Paper III), and runs that motion; read when the server starts.
     """
 
     host: str = "127.0.0.1"
@@ -93,6 +99,7 @@ class LiveOptions:
     start_q: tuple[float, ...] | None = None
     click_height_m: float | None = None
     segments: int = 12
+    gaze: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.host, str) or not self.host:
@@ -112,6 +119,8 @@ class LiveOptions:
             check_scalar(self.click_height_m, "click_height_m")
         if isinstance(self.segments, bool) or not isinstance(self.segments, int) or self.segments < 4:
             raise InputError(f"segments: expected an integer >= 4, got {self.segments!r}")
+        if not isinstance(self.gaze, tuple) or not all(isinstance(f, str | Path) for f in self.gaze):
+            raise InputError(f"gaze: expected a tuple of gaze file paths, got {self.gaze!r}")
         ExecuteOptions(seed=self.seed, time_limit_s=self.time_limit_s)  # checks both
 
 
@@ -247,7 +256,8 @@ class LiveServer:
         )
         self._lock = threading.Lock()
         self._state = LiveState(LiveStatus.IDLE, "click a point of the scene or a named point", q0, self.crane.fk(q0))
-        self._commands: queue.Queue[tuple[np.ndarray, str]] = queue.Queue()
+        self._gaze = {Path(f).stem: GazeRecording.load(f) for f in opts.gaze}
+        self._commands: queue.Queue[tuple[np.ndarray, str, np.ndarray | None]] = queue.Queue()
         self._busy = False
         self._stopping = threading.Event()
         with contextlib.redirect_stdout(io.StringIO()):  # viser prints a banner; the caller says where it serves
@@ -273,7 +283,19 @@ class LiveServer:
         with gui.add_folder("Go to"):
             for name in self.scene.points:
                 gui.add_button(name).on_click(self._point_command(name))
+        if self._gaze:
+            with gui.add_folder("Look and go"):
+                for name, recording in self._gaze.items():
+                    gui.add_button(f"gaze: {name}").on_click(self._gaze_command(name, recording))
         server.scene.on_click()(self._on_click)
+
+    def _gaze_command(self, name: str, recording: GazeRecording) -> Any:
+        """The callback of the button of the gaze file ``name``."""
+
+        def command(_event: Any) -> None:
+            self.go_to_gaze(recording, f"gaze {name}")
+
+        return command
 
     def _point_command(self, name: str) -> Any:
         """The callback of the button of the named point ``name``."""
@@ -336,15 +358,30 @@ class LiveServer:
         Returns False (and says so on the page) while a motion runs or after :meth:`stop`.
         """
         p = check_vector(target, 3, "target")
+        return self._command(p, label or "point", None)
+
+    def go_to_gaze(self, recording: GazeRecording, label: str = "gaze") -> bool:
+        """Command the crane to where ``recording``'s head looks at its last sample (003 Paper III): the target
+        estimate, selected with its covariance by 003 eq. 5.7 (the ``robust`` utility) from the present
+        configuration. Returns False as :meth:`go_to` does, and when the gaze gives no estimate."""
+        try:
+            estimate = recording.estimate()
+        except InputError as exc:
+            self._set(status=LiveStatus.FAILED, message=f"{label}: no target estimate ({exc})")
+            return False
+        return self._command(estimate.p_est, label, estimate.covariance)
+
+    def _command(self, target: np.ndarray, label: str, covariance: np.ndarray | None) -> bool:
+        """Queue one motion for the loop thread unless one runs or the server stops (see :meth:`go_to`)."""
         with self._lock:
             refused = self._busy or self._stopping.is_set()
             if not refused:
                 self._busy = True
         if refused:
             if not self._stopping.is_set():
-                self._set(message=f"busy: {label or 'the command'} refused while the motion runs")
+                self._set(message=f"busy: {label} refused while the motion runs")
             return False
-        self._commands.put((p, label or "point"))
+        self._commands.put((target, label, covariance))
         return True
 
     def go_to_point(self, name: str) -> bool:
@@ -357,11 +394,11 @@ class LiveServer:
         """The loop thread: one command at a time until the server stops."""
         while not self._stopping.is_set():
             try:
-                target, label = self._commands.get(timeout=0.05)
+                target, label, covariance = self._commands.get(timeout=0.05)
             except queue.Empty:
                 continue
             try:
-                self._run(target, label)
+                self._run(target, label, covariance)
             except _StopRun:
                 return
             except MotionlibError as exc:
@@ -372,12 +409,16 @@ class LiveServer:
                 with self._lock:
                     self._busy = False
 
-    def _run(self, target: np.ndarray, label: str) -> None:
-        """Select the motion for ``target`` from the present configuration and run it paced to real time."""
+    def _run(self, target: np.ndarray, label: str, covariance: np.ndarray | None = None) -> None:
+        """Select the motion for ``target`` from the present configuration (with a gaze estimate's ``covariance``
+        (3, 3) (m^2): by 003 eq. 5.7) and run it paced to real time."""
         o, lib = self.options, self.library
         q = self._state.q
         where = ", ".join(f"{v:.2f}" for v in target)
-        selection = lib.select_checked(target, q, o.utility)
+        if covariance is None:
+            selection = lib.select_checked(target, q, o.utility)
+        else:
+            selection = lib.select_checked(target, q, "robust", covariance=covariance)
         if not selection.ok:
             self._set(status=LiveStatus.NO_SELECTION, target=target, message=f"{label} ({where}): {selection.message}")
             return

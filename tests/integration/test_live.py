@@ -197,3 +197,33 @@ def test_stop_abandons_a_running_motion(live_library):
     assert not np.allclose(state.q, Library.open(live_library).start_q[0])  # it had moved, and stopped there
     assert not port_open(port) and not server.go_to_point("target-center")
     wait_for(lambda: set(threading.enumerate()) <= threads_before, 10.0)
+
+
+def test_a_gaze_button_goes_where_the_recorded_head_looks(live_library, tmp_path):
+    """A gaze file's button: the motion 003 eq. 5.7 selects for the head's estimate and its covariance
+    (:func:`motionlib.select_by_gaze` called directly), run to that entry's end point."""
+    import yaml
+
+    from motionlib import GazeRecording, select_by_gaze
+    from motionlib.control.gaze import gaze_angles
+
+    lib = Library.open(live_library)
+    eye, look = np.array([0.0, -1.0, 1.6]), lib.scene.points["pickup-a"] - np.array([0.0, 0.0, 0.3])
+    head = gaze_angles(eye, look[None, :])[0]  # the calibrated model: gaze = head, a 1-degree residual
+    recording = {"eye": eye.tolist(), "z_look": float(look[2]), "tip_above_m": 0.3,
+                 "model": {"A": [[1.0, 0.0], [0.0, 1.0]], "b": [0.0, 0.0],
+                           "residual_cov": [[3e-4, 0.0], [0.0, 3e-4]], "n_samples": 40},
+                 "samples": [[0.0, *head.tolist()], [0.5, *head.tolist()]]}
+    path = tmp_path / "look-at-pickup-a.yaml"
+    path.write_text(yaml.safe_dump(recording))
+    expected = select_by_gaze(lib, GazeRecording.load(path), lib.start_q[0])
+    assert expected.ok, expected.message
+
+    with live(live_library, LiveOptions(port=0, gaze=(str(path),))) as server:
+        assert server.go_to_gaze(GazeRecording.load(path))
+        wait_for(lambda: server.state.status not in (LiveStatus.IDLE, LiveStatus.RUNNING), 60.0)
+        state = server.state
+    assert state.status is LiveStatus.SETTLED, state.message
+    assert state.row == int(expected.selection.indices[0])
+    np.testing.assert_allclose(state.target, expected.estimate.p_est, atol=1e-12)
+    assert np.linalg.norm(lib.crane.fk(state.q) - lib.end_p[state.row]) <= TrackerParams().arrive_tol_m
