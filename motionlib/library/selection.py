@@ -348,7 +348,8 @@ def approach_samples(
     approach_p : ndarray, shape (k, 3)
         Points equally spaced in arc length along the final part, the last one the path's end (m).
     approach_t : ndarray, shape (k,)
-        Times (s) at which the tip first reaches them (linear interpolation between samples).
+        Times (s) at which the tip first reaches them (linear interpolation between samples); the last one
+        is the last sample's time (the trajectory's duration), also when the tip rests there before it.
     """
     p = check_points(p_tip_base, "p_tip_base")
     t = check_vector(t_s, p.shape[0], "t_s")
@@ -361,12 +362,13 @@ def approach_samples(
     # Keep the first sample of every dwell so that np.interp sees strictly increasing arc length and
     # each point gets the time the tip first reaches it.
     keep = np.concatenate([[True], np.diff(s) > 0.0])
+    duration = t[-1]
     s, p, t = s[keep], p[keep], t[keep]
     s_query = np.linspace(max(s[-1] - length, 0.0), s[-1], int(k))
     approach_p = np.stack([np.interp(s_query, s, p[:, j]) for j in range(3)], axis=1)
     approach_p[-1] = p[-1]
     approach_t = np.interp(s_query, s, t)
-    approach_t[-1] = t[-1]
+    approach_t[-1] = duration
     return approach_p, approach_t
 
 

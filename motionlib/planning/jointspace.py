@@ -67,7 +67,7 @@ class JointPathOptions:
     """
 
     planner: str = "RRTConnect"
-    max_checks: int = 10_000
+    max_checks: int = 2_000
     time_limit_s: float = 30.0
     resolution_s: float = 0.02
     subdivide_s: float = 0.05

@@ -75,7 +75,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import TYPE_CHECKING, Any
 
@@ -142,9 +142,9 @@ class PlanStatus(Enum):
 #: and the tip-space path keeps the slew within its limits (a slew cut); the turned log is screened with the
 #: grapple's clearance; the joint-space goals span the telescope's stroke and both slew branches, collision-checked
 #: before the searches; 7: a start inside the clearance is left through an escape ball
-#: (:mod:`motionlib.planning.start_escape`), the joint-space searches' budget is 10 000 checks (was 2 000), and a
-#: joint path whose telescope optimisation fails keeps its fitted profile; the jerk box is one period of the joints'
-#: hydraulic mode (0.4 s, was 0.1 s) and the settled law's grid 80 points (was 120).
+#: (:mod:`motionlib.planning.start_escape`); when no joint-space search finds a path the first goals are searched
+#: again with 5x the budget; a joint path whose telescope optimisation fails keeps its fitted profile; the jerk box
+#: is one period of the joints' hydraulic mode (0.4 s, was 0.1 s) and the settled law's grid 80 points (was 120).
 PLANNER_VERSION = 7
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
@@ -162,6 +162,8 @@ GOAL_TELESCOPE_SAMPLES = 12
 #: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
 #: fails are replaced by the next).
 JOINT_SEARCHES_PER_GOAL = 2
+#: When no goal configuration has a joint path, the first ones are searched again with this many times the budget.
+JOINT_RETRY_FACTOR = 5
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
 
@@ -995,21 +997,31 @@ class Planner:
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Joint paths to up to ``goal_telescopes`` goal configurations (:meth:`_goal_configurations`, searched in
         their order until that many have a path, at most ``JOINT_SEARCHES_PER_GOAL * goal_telescopes``
-        searches). Returns paths by name ``joint-<source>-q4=<value>`` (with ``-q1=<value>`` on a slew branch
-        other than the start's nearest) and diagnostics (the goals, the reasons of those without a path)."""
+        searches). When none has a path, the first ``goal_telescopes`` goals are searched once more with
+        ``JOINT_RETRY_FACTOR`` times the budget (a narrow passage; the searches that succeed are unchanged).
+        Returns paths by name ``joint-<source>-q4=<value>`` (with ``-q1=<value>`` on a slew branch other than the
+        start's nearest) and diagnostics (the goals, the reasons of those without a path)."""
         crane, o = self.crane, self.options
         goals, bounds, near, n_spread = self._goal_configurations(start_q, goal_p)
         paths: dict[str, np.ndarray] = {}
         failed: dict[str, str] = {}
-        for q_goal in goals[: JOINT_SEARCHES_PER_GOAL * o.goal_telescopes]:
-            if len(paths) == o.goal_telescopes:
-                break
-            label = f"q4={q_goal[3]:.2f}" + ("" if abs(q_goal[0] - near) < math.pi else f"-q1={q_goal[0]:.2f}")
-            res = plan_joint_path(crane, start_q, q_goal, self._config_valid, o.jointspace, o.seed, self._configs_valid)
-            if res.ok:
-                paths[f"joint-{res.source}-{label}"] = res.waypoints
-            else:
-                failed[label] = res.reason
+
+        def search(goal_list: np.ndarray, options: JointPathOptions) -> None:
+            for q_goal in goal_list:
+                if len(paths) == o.goal_telescopes:
+                    break
+                label = f"q4={q_goal[3]:.2f}" + ("" if abs(q_goal[0] - near) < math.pi else f"-q1={q_goal[0]:.2f}")
+                res = plan_joint_path(crane, start_q, q_goal, self._config_valid, options, o.seed,
+                                      self._configs_valid)
+                if res.ok:
+                    paths[f"joint-{res.source}-{label}"] = res.waypoints
+                else:
+                    failed[label] = res.reason
+
+        search(goals[: JOINT_SEARCHES_PER_GOAL * o.goal_telescopes], o.jointspace)
+        if not paths:  # a narrow passage: the first goals once more with a larger budget
+            search(goals[: o.goal_telescopes],
+                   replace(o.jointspace, max_checks=JOINT_RETRY_FACTOR * o.jointspace.max_checks))
         details = {"goals": [[float(q[0]), float(q[3]), b] for q, b in zip(goals, bounds, strict=True)],
                    "spread_goals": n_spread, "failed": failed}
         return paths, details

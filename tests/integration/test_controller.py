@@ -342,11 +342,11 @@ def test_passive_operator_in_m6_reproduces_the_planned_trajectory(which, timing,
     # time-aligned, the tip stays within a few cm of the plan's tip at the same moment (lag: ~0.04 s)
     plan_tip = crane.fk_batch(traj.q)
     # "time" keeps the plan's clock: within 3 cm of the plan's tip at the same moment (measured 2.0-2.2 cm);
-    # "path" runs ahead of a swing-shaped plan's clock (its speed floor and preview on the shaper's slow
-    # plateaus: measured 5-7 cm), which is why "time" is the default
+    # "path" runs ahead of a swing-shaped plan's clock (its speed floor and preview on the slow start and end
+    # of a law smoothed over 0.4 s: measured 8.4-9.2 cm), which is why "time" is the default
     n = min(len(arr["t"]), len(traj.t))
     gap = np.linalg.norm(arr["tip_p"][:n] - plan_tip[:n], axis=1).max()
-    assert gap < (0.03 if timing == "time" else 0.08)
+    assert gap < (0.03 if timing == "time" else 0.12)
     assert res.diagnostics["hard_stop_hits"] == 0
     assert set(np.unique(arr["authority"])) <= {int(Authority.SHARED), int(Authority.MANUAL)}
 

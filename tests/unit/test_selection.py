@@ -287,6 +287,16 @@ def test_approach_samples_time_stamps_the_first_arrival_after_a_dwell():
     np.testing.assert_allclose(at, [0.0, 1.0, 4.0])
 
 
+def test_approach_samples_end_at_the_duration_when_the_tip_rests_at_the_end():
+    """A trajectory whose last samples repeat its end point (a time law that reaches the end before its last
+    sample): the last approach time is still the duration, as the index requires (SelectionIndex)."""
+    p = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+    t = np.array([0.0, 1.0, 2.0, 3.0, 4.0])
+    ap, at = approach_samples(p, t, k=3, length_m=2.0)
+    np.testing.assert_allclose(ap[:, 0], [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(at, [0.0, 1.0, 4.0])
+
+
 # ------------------------------------------------------------------ start weights
 def test_default_start_weights_are_tip_displacement_per_unit_joint_motion():
     crane = Crane.load("forwarder")
