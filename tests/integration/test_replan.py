@@ -53,9 +53,29 @@ def test_smooth_path_stays_near_the_points_and_keeps_the_ends():
     assert np.allclose(np.linalg.norm(np.diff(out, axis=0), axis=1), 0.02, rtol=0.1)
 
 
+#: The first loading cycle of o1-m1.csv (S6, S8) ends before this time (s): the replanning tests take it alone.
+FIRST_CYCLE_END_S = 40.0
+
+
 @pytest.fixture(scope="module")
-def expert_recording() -> Recording:
-    return read_recording(DATA / "o1-m1.csv")
+def first_cycle_file(tmp_path_factory) -> Path:
+    """o1-m1.csv cut after its first loading cycle (the header's scene path made absolute): a third of the plans."""
+    lines = (DATA / "o1-m1.csv").read_text().splitlines(keepends=True)
+    out = []
+    for line in lines:
+        if line.startswith("# scene:"):
+            line = f"# scene: {(DATA / line.split(':', 1)[1].strip()).resolve()}\n"
+        elif line[:1].isdigit() and float(line.split(",", 1)[0]) >= FIRST_CYCLE_END_S:
+            break
+        out.append(line)
+    path = tmp_path_factory.mktemp("replan") / "o1-m1-first-cycle.csv"
+    path.write_text("".join(out))
+    return path
+
+
+@pytest.fixture(scope="module")
+def expert_recording(first_cycle_file) -> Recording:
+    return read_recording(first_cycle_file)
 
 
 @pytest.fixture(scope="module")
@@ -66,9 +86,9 @@ def expert_replanned(expert_recording):
 @pytest.mark.slow
 def test_replanning_keeps_the_recorded_path_and_is_never_slower(expert_recording, expert_replanned):
     rows = expert_replanned.motions
-    assert [m.state for m in rows] == ["S6", "S8"] * 3
+    assert [m.state for m in rows] == ["S6", "S8"]
     along = [m for m in rows if m.along.status is ReplanStatus.OK]
-    assert len(along) >= 4, [m.along.reason for m in rows]
+    assert len(along) >= 1, [m.along.reason for m in rows]
     for m in along:
         assert m.along.duration_s <= m.recorded_s
         assert m.along.deviation_m <= 0.01
@@ -130,8 +150,8 @@ def test_time_optimal_motion_replanned_finds_no_saving():
 
 
 @pytest.mark.slow
-def test_cli_totals_equal_the_sum_of_the_rows(expert_replanned):
-    result = CliRunner().invoke(cli, ["analyze", str(DATA / "o1-m1.csv"), "--replan", "--json"])
+def test_cli_totals_equal_the_sum_of_the_rows(expert_replanned, first_cycle_file):
+    result = CliRunner().invoke(cli, ["analyze", str(first_cycle_file), "--replan", "--json"])
     assert result.exit_code == 0, result.output
     report = json.loads(result.output)["replan"]
     for which in ("along", "free"):
