@@ -481,6 +481,7 @@ class Planner:
         except PlanningTimeout as exc:
             return PlanResult(PlanStatus.TIMEOUT, exc.reason, None, {}, {})
         finally:
+            self._path_checker, self._arm_checker = self._margin_checkers  # an escape ball lasts for its plan only
             if progress is not None:
                 progress.close()
         result.stages = dict(result.stages)  # a plain dict, without the progress
@@ -506,7 +507,6 @@ class Planner:
             return fail(
                 PlanStatus.QUERY_INVALID, f"start configuration is in collision ({d.crane_part} with {d.obstacle})"
             )
-        self._path_checker, self._arm_checker = self._margin_checkers
         if not self._config_valid(start_q):  # inside a clearance, not in contact: leave it through the escape ball
             self._path_checker, self._arm_checker = (
                 EscapeChecker(c, self._exact_checker, crane, crane.fk(start_q), o.start_escape_m)

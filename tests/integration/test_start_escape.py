@@ -59,9 +59,12 @@ def test_a_log_lifted_off_a_pile_is_carried_away_clear_of_contact_and_keeps_the_
     assert not exact.in_collision(start, True)  # a legal start ...
     assert CollisionChecker(crane, scene, margin=o.clearance_m).tip_in_collision(crane.fk(start), True)  # ... inside
 
-    result = Planner(crane, scene, o).plan(start, goal)
+    planner = Planner(crane, scene, o)
+    result = planner.plan(start, goal)
 
     result.raise_for_status()
+    # the ball lasts for this plan only: a later plan_along (which sets no checkers) screens with the margins
+    assert (planner._path_checker, planner._arm_checker) == planner._margin_checkers
     traj = result.trajectory
     np.testing.assert_allclose(traj.q[0, :4], start, atol=1e-9)
     assert not exact.configurations_in_collision(traj.q, True).any()  # dense re-check, every 5 ms sample
