@@ -42,6 +42,8 @@ open_loop
     Open-loop execution for machines without joint sensors, with trajectory modification (003 Paper II).
 gaze
     Head orientation to gaze: the linear model, its calibration and the target estimate (003 section 5.3).
+gaze_recording
+    Gaze files (eye point, calibrated model, recorded head stream) and selection by gaze (003 eq. 5.7).
 runlog
     The 200 Hz run log and its HDF5 file.
 ros_export

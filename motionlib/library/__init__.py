@@ -10,4 +10,6 @@ store
     :class:`~.store.Library` (reading) and :class:`~.store.LibraryWriter` (the HDF5 format).
 selection
     Trajectory selection for an operator's target (003 eqs. 5.3-5.7).
+commands
+    Command-set files: names bound to targets, points or regions and their utility (003 section 5.1.1).
 """

@@ -23,4 +23,8 @@ urdf
 frames
     Control frames (001 section 2): MRF points on the grapple and log, base/slew/view CRFs and
     the rigid-body velocity transformation of 001 eq. 1.
+embedded
+    Crane and scene models embedded in plan, library and run-log files (files that need nothing else).
+scene_check
+    A scene checked for a crane: every start's clearance, every point's reach and clearance.
 """

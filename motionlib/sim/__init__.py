@@ -38,4 +38,6 @@ dual_scenario
     Dual-crane scenario files: two cranes with base poses and calibration errors, one log, one command.
 dual
     :func:`~.dual.execute_dual`: two simulated cranes carry one log, with force-moment accommodation.
+commands
+    :func:`~.commands.execute_command`: a run started and continued by discrete commands (003 section 5.1.1).
 """

@@ -2,8 +2,16 @@
 
 Modules
 -------
+figures
+    Matplotlib figures without pyplot (no global backend, no figure left open).
 plan_plots
     Figures of a plan: phase plane (003 Fig. 4.1), joints against limits, the path in 3D.
+run_plots
+    Figures of a shared-control run (``motionlib execute --plot DIR``).
+library_plots
+    Figures of a motion library (``motionlib inspect --plot DIR``).
+work_plots
+    Figures of recorded crane work (``motionlib analyze --plot DIR``, 003 chapter 3).
 meshes
     Triangle meshes of obstacles and capsules.
 viewer

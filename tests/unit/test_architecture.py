@@ -105,3 +105,15 @@ def test_import_motionlib_stays_light():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("package", ["model", "planning", "library", "control", "sim", "analysis", "viz", "experiment"])
+def test_every_module_is_mapped_in_its_init_and_the_architecture_table(package):
+    """A new module is named where a newcomer looks for it: its subpackage's ``__init__`` docstring and its row
+    of docs/architecture.md's layer table."""
+    modules = sorted(p.stem for p in (ROOT / "motionlib" / package).glob("*.py") if p.stem != "__init__")
+    init_doc = pydoc.importlib.import_module(f"motionlib.{package}").__doc__ or ""
+    table = (ROOT / "docs" / "architecture.md").read_text()
+    row = next(line for line in table.splitlines() if line.startswith(f"| `motionlib.{package}` |"))
+    assert [m for m in modules if f"`{m}`" not in row] == []
+    assert [m for m in modules if m not in init_doc] == []
