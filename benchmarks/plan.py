@@ -22,8 +22,8 @@ planner's reach margin), each redrawn until it is a valid query by the planner's
 definitions (the start clear of the obstacles, the goal's grapple outside the clearance and its
 arm clear at the drawn configuration), the goal being the drawn configuration's tip point. The
 seeds of the report were fixed before looking (0). Every query above 2x the pump-aware bound is
-listed with the obstacle nearest the straight joint-space line between the start and the goal
-configuration, the obstacle that forces the detour.
+listed (random or not) with the obstacle nearest the straight joint-space line between the start and the
+plan's end configuration, the obstacle that forces the detour.
 
 The NLP of the redundancy stage is built once per crane (as in a library
 build); that one-off build time is reported separately and excluded from the
@@ -101,9 +101,7 @@ def log_loading_queries(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarra
 
 
 def random_queries(n: int, seed: int):
-    """``queries_fn`` of :func:`run`: ``n`` random valid queries (module docstring), alternately empty and loaded.
-
-    Each query's goal configuration (4,) goes to ``GOAL_Q[scene name, query name]``, for the obstacle report."""
+    """``queries_fn`` of :func:`run`: ``n`` random valid queries (module docstring), alternately empty and loaded."""
 
     def make(crane: Crane, scene: Scene) -> list[tuple[str, np.ndarray, np.ndarray, bool]]:
         o = PlanOptions()
@@ -131,22 +129,15 @@ def random_queries(n: int, seed: int):
                     and crane.reachable(goal, o.reach_margin_rad)
                 ):
                     break
-            name = f"random#{i}{'-loaded' if loaded else ''}"
-            GOAL_Q[scene.name, name] = goal_q
-            out.append((name, start, goal, loaded))
+            out.append((f"random#{i}{'-loaded' if loaded else ''}", start, goal, loaded))
         return out
 
     return make
 
 
-#: Goal configuration (4,) of each random query, keyed by (scene name, query name).
-GOAL_Q: dict[tuple[str, str], np.ndarray] = {}
-
-
-def nearest_obstacle(crane: Crane, scene: Scene, start: np.ndarray, goal_q: np.ndarray, loaded: bool) -> str:
-    """The obstacle (or the ground) nearest the straight joint-space line from ``start`` to ``goal_q``, with the
-    least distance (m; negative: penetration depth where fcl reports one)."""
-    checker = CollisionChecker(crane, scene)
+def nearest_obstacle(checker: CollisionChecker, start: np.ndarray, goal_q: np.ndarray, loaded: bool) -> str:
+    """The obstacle (or the ground) nearest the straight joint-space line from ``start`` to ``goal_q`` (the plan's
+    end configuration), with the least distance (m; negative: penetration depth where fcl reports one)."""
     best = min(
         (checker.distance(start + a * (goal_q - start), loaded) for a in np.linspace(0.0, 1.0, 41)),
         key=lambda d: d.distance,
@@ -183,6 +174,7 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
         for loaded in (False, True)
     }
     queries = queries_fn(crane, scene)
+    exact = CollisionChecker(crane, scene)  # the obstacle report's
     # Build the NLP once (as a library build does) on a throw-away query.
     t0 = time.perf_counter()
     first = queries[0]
@@ -214,8 +206,8 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
                 unshaped_settled_s=res.stages["swing"].details["unshaped_time_to_settled_s"],
                 shaping_ratio=d / (d - res.stages["swing"].details.get("added_s", 0.0)),
             )
-            if row["lb_ratio"] > 2.0 and (scene.name, name) in GOAL_Q:
-                row["obstacle"] = nearest_obstacle(crane, scene, start[:4], GOAL_Q[scene.name, name], loaded)
+            if row["lb_ratio"] > 2.0:
+                row["obstacle"] = nearest_obstacle(exact, start[:4], res.trajectory.q[-1, :4], loaded)
         if compare_old:
             t0 = time.perf_counter()
             old = planners["old", loaded].plan(start, goal)
