@@ -33,14 +33,14 @@ from ..model.fast_kinematics import tip_point_jacobian
 OPERATOR_CONSTS: tuple[str, ...] = (
     "reaction_time_s", "gain_per_s", "max_speed_m_s", "precision_m", "noise", "noise_tau_s", "stick_move_s",
     "update_period_s", "takeover_distance_m", "via_radius_m", "settle_speed_m_s", "joint_habit", "takeover_tau_s",
-    "waits_for_arrival", "joint_operation", "traded", "manual", "base_frame",
+    "waits_for_arrival", "joint_operation", "traded", "manual", "base_frame", "anticipation_s",
 )
 (O_REACTION, O_GAIN, O_MAX_SPEED, O_PRECISION, O_NOISE, O_NOISE_TAU, O_MOVE, O_UPDATE, O_TAKEOVER_DIST, O_VIA_RADIUS,
- O_SETTLE, O_HABIT, O_TAU, O_WAITS, O_JOINT_OP, O_TRADED, O_MANUAL, O_BASE_FRAME) = range(18)
+ O_SETTLE, O_HABIT, O_TAU, O_WAITS, O_JOINT_OP, O_TRADED, O_MANUAL, O_BASE_FRAME, O_ANTICIPATION) = range(19)
 #: Vectors after the scalars: joystick gains (3 Cartesian or 4 joint), lever gains (4: the joints' speeds),
 #: the true goal (3), the goal estimate (3), the stops' 3 % zones (4 + 4).
-O_JS_GAINS, O_LEVERS, O_GOAL, O_GOAL_EST, O_NEAR_LO, O_NEAR_HI = 18, 22, 26, 29, 32, 36
-N_OPERATOR_CONSTS = 40
+O_JS_GAINS, O_LEVERS, O_GOAL, O_GOAL_EST, O_NEAR_LO, O_NEAR_HI = 19, 23, 27, 30, 33, 37
+N_OPERATOR_CONSTS = 41
 
 OPERATOR_STATE: tuple[str, ...] = (
     "phase", "t_last", "next_update", "choice1", "choice2", "choice3", "choice4", "noise1", "noise2", "noise3",
@@ -181,23 +181,28 @@ def _dist(a0: float, a1: float, a2: float, b) -> float:
 def choose_axes(c, state, via, subsets, g, p, q, p_seen, v_seen):
     """One correction: stick axes (4,) for the velocity toward the aim, or rest (phase DONE) when close enough.
 
-    The aim is the next via point (passed once within ``via_radius_m``, or when the goal is nearer)
-    or the goal estimate; the tip velocity ``gain (aim - p_seen)``, at most ``max_speed_m_s``, turned
-    into axes through the joystick's mapping at the tip ``p``; with the joint habit ``h``, the
-    Cartesian axes are blended with the joint levers for the same velocity: ``(1 - h) a + h a_joint``.
+    The operator judges every distance from the tip it expects after its own delay, ``p_hat = p_seen +
+    anticipation_s v_seen`` (``p_seen`` without anticipation). The aim is the next via point (passed once within
+    ``via_radius_m``, or when the goal is nearer) or the goal estimate; the tip velocity ``gain (aim - p_hat)``,
+    at most ``max_speed_m_s``, turned into axes through the joystick's mapping at the tip ``p``; the operator is
+    done once ``p_hat`` is within ``precision_m`` of the goal estimate and the seen speed below ``settle_speed_m_s``.
+    With the joint habit ``h``, the Cartesian axes are blended with the joint levers for the same velocity:
+    ``(1 - h) a + h a_joint``.
     """
+    lead = c[O_ANTICIPATION]
+    p_hat = (p_seen[0] + lead * v_seen[0], p_seen[1] + lead * v_seen[1], p_seen[2] + lead * v_seen[2])
     gx, gy, gz = c[O_GOAL], c[O_GOAL + 1], c[O_GOAL + 2]
     ax, ay, az = c[O_GOAL_EST], c[O_GOAL_EST + 1], c[O_GOAL_EST + 2]
     k = int(state[X_VIA])
     while k < via.shape[0]:  # the next via point, unless passed or farther than the target
-        d_via = _dist(via[k, 0], via[k, 1], via[k, 2], p_seen)
-        if d_via <= c[O_VIA_RADIUS] or _dist(gx, gy, gz, p_seen) < d_via:
+        d_via = _dist(via[k, 0], via[k, 1], via[k, 2], p_hat)
+        if d_via <= c[O_VIA_RADIUS] or _dist(gx, gy, gz, p_hat) < d_via:
             k += 1
             continue
         ax, ay, az = via[k, 0], via[k, 1], via[k, 2]
         break
     state[X_VIA] = k
-    ex, ey, ez = ax - p_seen[0], ay - p_seen[1], az - p_seen[2]
+    ex, ey, ez = ax - p_hat[0], ay - p_hat[1], az - p_hat[2]
     dist = math.sqrt(ex * ex + ey * ey + ez * ez)
     if dist <= c[O_PRECISION] and k >= via.shape[0]:
         if math.sqrt(v_seen[0] * v_seen[0] + v_seen[1] * v_seen[1] + v_seen[2] * v_seen[2]) <= c[O_SETTLE]:

@@ -184,6 +184,25 @@ def test_joint_habit_pushes_the_joint_levers_it_would_use(lab):
     np.testing.assert_allclose(half, 0.5 * cart + 0.5 * lever, atol=1e-12)
 
 
+@pytest.mark.parametrize("lead", [0.0, 0.5])
+def test_anticipating_operator_aims_from_the_tip_it_expects(lab, lead):
+    """With anticipation ``a`` the correction is ``gain (goal_est - (p_seen + a v_seen))``, capped at the
+    top speed: read through the controller's Cartesian joystick, the stick commands exactly that velocity
+    (tip seen at rest at ``p`` but reported moving at ``v``, so the two terms are told apart)."""
+    ctl = SharedController(lab, "M4")
+    sim = SimulatedCrane(lab, Q_MID)
+    p = np.array(sim.tip)
+    v = np.array([0.1, -0.15, 0.05])
+    op = SimulatedOperator.preset("expert", p + [0.2, 0.1, -0.1], "M4", ctl.joystick, lab, seed=3, noise=0.0,
+                                  joint_habit=0.0, anticipation_s=lead)
+    t_end = op.params.reaction_time_s + op.params.stick_move_s + 0.1
+    for k in range(int(t_end / DT) + 1):
+        axes = np.array(op.input(_obs(k * DT, p, q=sim.q, v=v)).axes)
+    want = (op.goal_estimate - (p + lead * v)) * op.params.gain_per_s
+    assert np.linalg.norm(want) < op.params.max_speed_m_s and np.abs(axes).max() < 1.0  # not capped, not saturated
+    np.testing.assert_allclose(op.joystick.rate(_ctx(p, axes)), want, atol=1e-9)
+
+
 def _ctx(p, axes) -> StepContext:
     c = StepContext()
     c.p, c.axes = tuple(p), tuple(float(a) for a in axes)
