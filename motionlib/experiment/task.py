@@ -48,6 +48,7 @@ import numpy as np
 from ..control.control_types import Mode, OperatorInput
 from ..control.controller import SharedController
 from ..errors import InputError
+from ..model.hanging_body import HeldLog
 from ..planning.trajectory import Trajectory
 from ..sim.operators import FastPlan, Observation, SimulatedOperator
 from .panel import PanelOperator, phase_seed
@@ -250,9 +251,8 @@ class LoadingTask:
             self._ok = sc.grab_ok(log, self.sim.grapple, self.sim.tip)
             dwell = sc.options.grab_dwell_s
             if self._ok and density is not None and self.sim.held_log is None:  # the closing grapple takes the log
-                depth = self.sim.length_m - 0.5 * log.diameter_m  # held on its axis in the closed grapple
-                mass = log.mass_kg(density)
-                self.sim.grasp(mass, depth, mass * log.diameter_m**2 / 8.0)  # rolling in the grapple: m D^2 / 8
+                held = HeldLog.on_axis(log.mass_kg(density), log.diameter_m, self.sim.length_m)
+                self.sim.grasp(held.mass_kg, held.depth_m, held.inertia_kg_m2)
         else:
             self._ok = sc.release_ok(self.sim.tip)
             dwell = sc.options.release_dwell_s

@@ -27,4 +27,7 @@ embedded
     Crane and scene models embedded in plan, library and run-log files (files that need nothing else).
 scene_check
     A scene checked for a crane: every start's clearance, every point's reach and clearance.
+hanging_body
+    The grapple and a held log as one rigid pendulum: its equivalent length (the simulated crane's and the
+    planner's loaded pendulum).
 """

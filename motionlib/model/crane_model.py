@@ -30,7 +30,7 @@ CRANES_DIR = Path(__file__).parent / "cranes"
 #: The :class:`CraneModel` fields of the joints' oil springs (optional; left out of ``to_dict`` when None).
 STIFFNESS_FIELDS: tuple[str, ...] = ("bulk_modulus", "oil_volume", "rotator_oil_volume", "rotator_inertia")
 #: The :class:`CraneModel` fields of the load path (optional; left out of ``to_dict`` when None).
-LOAD_PATH_FIELDS: tuple[str, ...] = ("relief_pressure", "grapple_close_time", "grapple_open_time")
+LOAD_PATH_FIELDS: tuple[str, ...] = ("relief_pressure", "grapple_close_time", "grapple_open_time", "log_mass")
 #: Standard gravity (m/s^2).
 GRAVITY_M_S2 = 9.81
 #: Swing damping ``c`` (1/s) of the grapple pendulum when the crane file gives no ``dynamics.swing_damping``:
@@ -180,7 +180,9 @@ class CraneModel:
     The load path (optional, ``None`` without them): ``relief_pressure`` (Pa, ``hydraulics.relief_pressure``:
     the relief valves' setting; with ``displacement`` each joint's capacity, :meth:`joint_capacities`) and
     ``grapple_close_time``, ``grapple_open_time`` (s, ``dynamics``: the grapple's closing and opening
-    time, after which a grasped log hangs on the rod or has left it).
+    time, after which a grasped log hangs on the rod or has left it) and ``log_mass`` (kg, ``dynamics.log_mass``:
+    the mass of the file's log, ``log_length`` x ``log_diameter``; with it a loaded plan's pendulum is the grapple
+    and the log held on its axis, :meth:`motionlib.planning.swing.Pendulum.from_crane`).
 
     ``swing_damping`` (1/s, optional ``dynamics.swing_damping``; ``None`` when the file gives
     none) is the damping ``c`` of the grapple's swing on its rod of length ``grapple_length``: small
@@ -218,6 +220,7 @@ class CraneModel:
     relief_pressure: float | None = None
     grapple_close_time: float | None = None
     grapple_open_time: float | None = None
+    log_mass: float | None = None
 
     def joint_capacities(self, with_rotator: bool = False) -> tuple[float, ...] | None:
         """Each joint's relief-valve capacity ``p_relief d_i`` (N m, N for the telescope), joint order.
@@ -351,6 +354,8 @@ class CraneModel:
                 out["dynamics"]["grapple_open_time"] = self.grapple_open_time
             if self.swing_damping is not None:
                 out["dynamics"]["swing_damping"] = self.swing_damping
+            if self.log_mass is not None:
+                out["dynamics"]["log_mass"] = self.log_mass
         return out
 
     @property
@@ -451,7 +456,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
     log_length = geo.number("log_length", gt=0, plausible=r["log_length"])
     log_diameter = geo.number("log_diameter", gt=0, plausible=r["log_diameter"])
     geo.done()
-    joint_inertia = load_mass = rotator_inertia = close_time = open_time = swing_damping = None
+    joint_inertia = load_mass = rotator_inertia = close_time = open_time = swing_damping = log_mass = None
     if top.has("dynamics"):
         dyn = top.section("dynamics")
         isec = dyn.section("joint_inertia")
@@ -465,6 +470,8 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
             open_time = dyn.number("grapple_open_time", gt=0, plausible=r["grapple_time"])
         if dyn.has("swing_damping"):
             swing_damping = dyn.number("swing_damping", ge=0, plausible=r["swing_damping"])
+        if dyn.has("log_mass"):
+            log_mass = dyn.number("log_mass", gt=0, plausible=r["load_mass"])
         dyn.done()
     if vsec is not None and joint_inertia is None:
         top.fail("dynamics", "required key is missing (hydraulics.oil_volume needs dynamics.joint_inertia)")
@@ -498,6 +505,7 @@ def crane_model_from_dict(data: dict, file: str = "<crane>") -> CraneModel:
         grapple_close_time=close_time,
         grapple_open_time=open_time,
         swing_damping=swing_damping,
+        log_mass=log_mass,
         **radii,
     )
     if vsec is not None:  # each joint's natural frequency sqrt(4 beta d^2 / (V I)) / 2 pi must be plausible

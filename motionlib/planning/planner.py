@@ -144,8 +144,10 @@ class PlanStatus(Enum):
 #: before the searches; 7: a start inside the clearance is left through an escape ball
 #: (:mod:`motionlib.planning.start_escape`); when no joint-space search finds a path the first goals are searched
 #: again with 5x the budget; a joint path whose telescope optimisation fails keeps its fitted profile; the jerk box
-#: is one period of the joints' hydraulic mode (0.4 s, was 0.1 s) and the settled law's grid 80 points (was 120).
-PLANNER_VERSION = 7
+#: is one period of the joints' hydraulic mode (0.4 s, was 0.1 s) and the settled law's grid 80 points (was 120);
+#: 8: a loaded plan's pendulum is the grapple and the crane file's log (``dynamics.log_mass``), as the simulated
+#: crane swings once it holds that log (:meth:`~motionlib.planning.swing.Pendulum.from_crane`).
+PLANNER_VERSION = 8
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"

@@ -40,6 +40,7 @@ from scipy.signal import cont2discrete, lfilter, ss2tf
 from ..checks import check_scalar
 from ..errors import InputError
 from ..model.crane_model import GRAVITY_M_S2, CraneModel
+from ..model.hanging_body import HangingBody, HeldLog
 from ..model.kinematics import Crane
 
 #: Step (s) of the central difference ``(p(q + h qd) - p(q - h qd)) / 2h`` that gives ``J(q) qd``.
@@ -53,7 +54,8 @@ class Pendulum:
     Attributes
     ----------
     length_m : float
-        Rod length ``L`` (m): the crane file's ``geometry.grapple_length``.
+        Rod length ``L`` (m): the crane file's ``geometry.grapple_length``, or a loaded grapple's equivalent
+        length (:meth:`from_crane`).
     damping_per_s : float
         Damping ``c`` (1/s): the crane file's ``dynamics.swing_damping`` (or its default).
     gravity_m_s2 : float
@@ -72,14 +74,20 @@ class Pendulum:
 
     @classmethod
     def from_crane(cls, model: CraneModel, loaded: bool = False) -> Pendulum:
-        """The pendulum of ``model``'s grapple, empty or carrying a log.
+        """The pendulum of ``model``'s grapple, empty or carrying the crane file's log.
 
-        The simulated crane's pendulum is a point mass at the rod's end whatever it carries (the log's
-        mass changes the rod force, not the period of (1)), so ``loaded`` gives the same rod length and
-        damping; it is taken so that a crane model with a load-dependent pendulum changes this one place.
+        Empty, the rod length ``geometry.grapple_length`` (the grapple a point mass at its end). Loaded, on a
+        crane file that gives the log's mass (``dynamics.log_mass``) and the grapple's (``dynamics.load_mass``):
+        the equivalent length ``L_eff = I_pivot / (M D)`` of the grapple and the log held on its axis
+        (:class:`~motionlib.model.hanging_body.HangingBody`, :meth:`~motionlib.model.hanging_body.HeldLog.on_axis`),
+        as the simulated crane swings once it has grasped that log; without them the rod length. The damping
+        is ``dynamics.swing_damping`` either way.
         """
-        del loaded  # the point-mass pendulum's parameters do not depend on the load (docstring)
-        return cls(model.grapple_length, model.grapple_swing_damping_per_s)
+        length = model.grapple_length
+        if loaded and model.log_mass is not None and model.load_mass is not None:
+            log = HeldLog.on_axis(model.log_mass, model.log_diameter, length)
+            length = HangingBody.of(model.load_mass, length, log).equivalent_length_m
+        return cls(length, model.grapple_swing_damping_per_s)
 
     @property
     def omega_n(self) -> float:

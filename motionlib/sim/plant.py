@@ -123,6 +123,7 @@ from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
 from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ, MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
+from ..model.hanging_body import HangingBody, HeldLog
 from ..model.kinematics import Crane
 from ..model.scene import Obstacle
 from .contact import ContactParams, ContactSurfaces, penalty_force
@@ -843,13 +844,10 @@ class SimulatedCrane:
 
     def pendulum(self) -> tuple[float, float, float]:
         """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the tip
-        ``I_pivot`` (kg m^2) (module docstring, "Grasp and release")."""
-        m0, l0 = self._mass, self.length_m
-        mass, moment, inertia = m0, m0 * l0, m0 * l0 * l0
-        if self.held_log is not None:
-            m, d, i = self.held_log
-            mass, moment, inertia = mass + m, moment + m * d, inertia + m * d * d + i
-        return mass, moment / mass if mass > 0.0 else l0, inertia
+        ``I_pivot`` (kg m^2) (module docstring, "Grasp and release"; :class:`~motionlib.model.hanging_body.HangingBody`)."""
+        log = None if self.held_log is None else HeldLog(*self.held_log)
+        body = HangingBody.of(self._mass, self.length_m, log)
+        return body.mass_kg, body.depth_m, body.inertia_kg_m2
 
     def _schedule(self, delay_s: float | None, key: str) -> None:
         """The pendulum of :meth:`pendulum` from ``t + delay_s`` on (in :func:`plant_period`)."""
@@ -857,12 +855,12 @@ class SimulatedCrane:
             raise InputError(f"crane {self.crane.name!r}: dynamics.{key} is missing (the grapple's timing)")
         if self.params.model == "second_order" and self._inertia is None:
             raise InputError(f"crane {self.crane.name!r}: a grasped log needs joint_inertia (SimParams or the file)")
-        mass, depth, inertia = self.pendulum()
+        body = HangingBody(*self.pendulum())
         prm, l0 = self.arrays.prm, self.length_m
-        prm[P_NEXT_MASS] = mass
-        # l / L_eff with L_eff = I_pivot / (M D); d / l
-        prm[P_NEXT_SIGMA] = l0 * mass * depth / inertia if inertia > 0.0 else 1.0
-        prm[P_NEXT_KAPPA] = depth / l0
+        prm[P_NEXT_MASS] = body.mass_kg
+        # l / L_eff (HangingBody.equivalent_length_m = I_pivot / (M D)); d / l
+        prm[P_NEXT_SIGMA] = l0 * body.mass_kg * body.depth_m / body.inertia_kg_m2 if body.inertia_kg_m2 > 0.0 else 1.0
+        prm[P_NEXT_KAPPA] = body.depth_m / l0
         prm[P_SWITCH_T] = self.t + float(delay_s)
 
     @property

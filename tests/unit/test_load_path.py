@@ -77,6 +77,32 @@ def test_grasped_log_swings_as_a_physical_pendulum(lab, inertia):
     np.testing.assert_allclose(_swing_period(sim), empty, rtol=2e-3)
 
 
+def test_planner_loaded_pendulum_is_the_grasped_file_log():
+    """The forwarder file's log (``dynamics.log_mass``, held on its axis, rolling: I_l = m_l D_l^2 / 8): the
+    planner's loaded pendulum has the closed-form length I_pivot / (M D) from the file's numbers, and the simulated
+    crane that grasps that log swings with its period 2 pi sqrt(L_eff / g); empty, both are the rod's. A crane
+    file without ``log_mass`` (the lab's) plans a loaded motion with the rod length."""
+    from motionlib.model.hanging_body import HeldLog
+    from motionlib.planning.swing import Pendulum
+
+    crane = Crane.load("forwarder")
+    model = crane.model
+    m0, l0, m_l, d_l = model.load_mass, model.grapple_length, model.log_mass, model.log_diameter
+    depth = l0 - d_l / 2
+    length = (m0 * l0**2 + m_l * depth**2 + m_l * d_l**2 / 8) / (m0 * l0 + m_l * depth)
+    loaded, empty = Pendulum.from_crane(model, loaded=True), Pendulum.from_crane(model)
+    assert loaded.length_m == pytest.approx(length, rel=1e-12) and length < 0.96 * l0
+    assert empty.length_m == l0 and loaded.damping_per_s == empty.damping_per_s
+    prm = SimParams(model="first_order", swing_damping_per_s=0.0)
+    sim = SimulatedCrane(crane, Q_MID, prm)
+    held = HeldLog.on_axis(m_l, d_l, sim.length_m)
+    sim.grasp(held.mass_kg, held.depth_m, held.inertia_kg_m2)
+    _hold(sim, model.grapple_close_time)
+    np.testing.assert_allclose(_swing_period(sim), 2 * math.pi * math.sqrt(length / prm.gravity_m_s2), rtol=2e-3)
+    lab = Crane.load("lab").model
+    assert lab.log_mass is None and Pendulum.from_crane(lab, loaded=True).length_m == lab.grapple_length
+
+
 def test_grasp_changes_static_joint_loads_as_jacobian_transpose_predicts(lab):
     """Second-order plant at rest: each joint's actuator holds tau_i = (J^T F)_i, F = (0, 0, -M g) the rod's pull
     (the Jacobian at the settled configuration, the joints' inertia from the crane file); M is the grapple's mass
