@@ -77,8 +77,9 @@ MAX_ITER = 1000
 #: sensitive to the pendulum's frequency as a ZV shaper; the plant's nonlinear pendulum (a few per mil slower at
 #: 0.3 rad), the joints' lag and a grasped log other than the crane file's (the loaded pendulum is the grapple and
 #: the file's log, :meth:`~motionlib.planning.swing.Pendulum.from_crane`; a 4 m log swinging end over end on the
-#: forwarder's 1.1 m rod would be a 0.96 m pendulum) all shift it. A lab motion fed open loop to the simulated crane ended at 0.027 rad with the nominal
-#: model alone, 0.015 rad with +-5 % (7 % longer) and 0.009 rad with +-10 % (14 % longer); assumption.
+#: forwarder's 1.1 m rod would be a 0.96 m pendulum) all shift it. A lab motion fed open loop to the simulated
+#: crane ended at 0.027 rad with the nominal model alone, 0.015 rad with +-5 % (7 % longer) and 0.009 rad with
+#: +-10 % (14 % longer); assumption.
 ROBUST_LENGTHS = (-0.05, 0.0, 0.05)
 #: IPOPT starts from TOPPRA's profile slowed down this many times (strictly inside its limits).
 INITIAL_STRETCH = 1.1

@@ -843,8 +843,9 @@ class SimulatedCrane:
         self._schedule(self.crane.model.grapple_open_time, "grapple_open_time")
 
     def pendulum(self) -> tuple[float, float, float]:
-        """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the tip
-        ``I_pivot`` (kg m^2) (module docstring, "Grasp and release"; :class:`~motionlib.model.hanging_body.HangingBody`)."""
+        """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the
+        tip ``I_pivot`` (kg m^2) (module docstring, "Grasp and release";
+        :class:`~motionlib.model.hanging_body.HangingBody`)."""
         log = None if self.held_log is None else HeldLog(*self.held_log)
         body = HangingBody.of(self._mass, self.length_m, log)
         return body.mass_kg, body.depth_m, body.inertia_kg_m2
