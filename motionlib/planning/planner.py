@@ -101,7 +101,7 @@ from .redundancy import (
     telescope_bounds,
 )
 from .rotator import ROTATOR_SHAPES, add_rotator, goal_rotator, rotator_profile
-from .settled_law import settled_law
+from .settled_law import MAX_GRID, settled_law
 from .shaping import ShapedMotion, Shaper, restretched, shape, shaped_candidates
 from .slew_cut import slew_cut
 from .smoothness import smoothness
@@ -146,7 +146,9 @@ class PlanStatus(Enum):
 #: again with 5x the budget; a joint path whose telescope optimisation fails keeps its fitted profile; the jerk box
 #: is one period of the joints' hydraulic mode (0.4 s, was 0.1 s) and the settled law's grid 80 points (was 120);
 #: 8: a loaded plan's pendulum is the grapple and the crane file's log (``dynamics.log_mass``), as the simulated
-#: crane swings once it holds that log (:meth:`~motionlib.planning.swing.Pendulum.from_crane`).
+#: crane swings once it holds that log (:meth:`~motionlib.planning.swing.Pendulum.from_crane`); a settled law that
+#: exceeds a limit between its grid points by up to ``SETTLED_MAX_RESTRETCH`` (was ``MAX_RESTRETCH``) is solved
+#: again under scaled limits, and one whose dense swing exceeds the tolerance once on a grid twice as fine.
 PLANNER_VERSION = 8
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
@@ -174,6 +176,14 @@ SHAPING_RESTRETCHES = 2
 #: Largest limit ratio a shaped motion is re-shaped for: a shaper that mixes path points whose joint ratios differ
 #: more (a wiggly path, e.g. a recorded operator's) is rejected rather than slowed down several times.
 MAX_RESTRETCH = 1.2
+#: Largest limit ratio the settled law is solved again for, under limits scaled down by it. The ratio comes from
+#: the jerk box's path-speed changes where the joint path curves (the ``q'' s_dot^2`` term), up to 1.5 on the
+#: forwarder's random queries; the shapers left instead (benchmarks/plan.py --random 50 --seed 0, planner 7)
+#: 0.16-0.42 rad of swing and 19-30 s to settled, where the re-solved laws arrive still in 12-19 s.
+SETTLED_MAX_RESTRETCH = 2.0
+#: Grid points of the settled law's second solve, in units of ``MAX_GRID``, when the first one's densely predicted
+#: swing exceeds the tolerance (a long motion: a 13 s forwarder motion on 80 points leaves 0.034 rad, 0.024 on 160).
+SETTLED_REFINE = 2
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
 
@@ -870,36 +880,42 @@ class Planner:
         return None, None, "", details
 
     def _settled_motion(self, law: TimeLaw, details: dict[str, Any], rejected: dict[str, str], start_q: np.ndarray,
-                       goal_p: np.ndarray) -> ShapedMotion | None:
+                        goal_p: np.ndarray) -> ShapedMotion | None:
         """The minimum-time law with the swing in the problem (:func:`~motionlib.planning.settled_law.settled_law`)
         and the jerk box, if its predicted swing is within the tolerance and it verifies; else None.
 
-        Its limits hold at the grid points of the problem only; a motion that exceeds one between them by a
-        ratio up to ``MAX_RESTRETCH`` is solved again under limits scaled down by that ratio (at most
+        Its swing and its limits hold at the grid points of the problem only. A motion whose densely predicted
+        swing exceeds the tolerance on a thinned grid is solved once more on ``SETTLED_REFINE`` times the
+        points (a long motion's intervals grow with it); one that exceeds a limit between them by a ratio up to
+        ``SETTLED_MAX_RESTRETCH`` is solved again under limits scaled down by that ratio (at most
         ``SHAPING_RESTRETCHES`` times). The solver's diagnostics go into ``details["settled_law"]``, a
         rejection into ``rejected``.
         """
         o = self.options
-        scale = 1.0
-        for _ in range(SHAPING_RESTRETCHES + 1):
+        scale, max_grid = 1.0, MAX_GRID
+        for _ in range(SHAPING_RESTRETCHES + 2):
             limits = self.full_limits if scale == 1.0 else limits_for(self.crane, scale, with_rotator=True)
-            settled = settled_law(law, limits, self.crane, self.pendulum, o.swing_tolerance_rad, o.swing_peak_rad)
+            settled = settled_law(law, limits, self.crane, self.pendulum, o.swing_tolerance_rad, o.swing_peak_rad,
+                                  max_grid=max_grid)
             details["settled_law"] = {"status": settled.status.value, "reason": settled.reason, "limit_scale": scale,
                                       **settled.diagnostics}
             if settled.law is None:
                 return None
             motion = shape(settled.law, Shaper("settled", ((0.0, 1.0),), o.jerk_box_s), self.crane, self.pendulum,
                            o.swing_tolerance_rad, o.dt_s)
-            label = f"settled (limits x {scale:.3f})"
+            label = f"settled (limits x {scale:.3f}, {settled.diagnostics['n_grid']} points)"
             if motion.swing.residual_rad > o.swing_tolerance_rad:
                 rejected[label] = f"predicted residual swing {motion.swing.residual_rad:.3f} rad"
-                return None
+                if max_grid != MAX_GRID or settled.diagnostics["n_grid"] < max_grid:  # refined, or not thinned
+                    return None
+                max_grid = SETTLED_REFINE * MAX_GRID
+                continue
             report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, o.swing_tolerance_rad,
                                                start_q, goal_p)
             if report.ok:
                 return motion
             rejected[label] = report.problems[0]
-            if report.problems != report.limits or report.limit_ratio > MAX_RESTRETCH:  # only limits are re-solved
+            if report.problems != report.limits or report.limit_ratio > SETTLED_MAX_RESTRETCH:  # only limits
                 return None
             scale /= report.limit_ratio * (1.0 + LIMIT_TOLERANCE)
         return None

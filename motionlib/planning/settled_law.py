@@ -185,7 +185,7 @@ def _pendulum_step(pendulum: Pendulum) -> ca.Function:
 
 
 def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pendulum, tolerance_rad: float,
-                peak_rad: float | None = None, max_iter: int = MAX_ITER) -> SettledLaw:
+                peak_rad: float | None = None, max_iter: int = MAX_ITER, max_grid: int = MAX_GRID) -> SettledLaw:
     """The minimum-time law along ``law``'s path whose residual swing is at most ``SWING_MARGIN * tolerance_rad``
     for every rod length of :data:`ROBUST_LENGTHS` (module docstring).
 
@@ -205,12 +205,14 @@ def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pen
         Largest swing ``|(theta_x, theta_y)|`` (rad) during the motion, at the grid points; None: free.
     max_iter : int
         IPOPT's iteration budget.
+    max_grid : int
+        Most grid points of the problem (:data:`MAX_GRID`).
     """
     grid, sd = law.grid_speeds()
     if sd[0] != 0.0 or sd[-1] != 0.0:
         return SettledLaw(SettledLawStatus.NOT_AT_REST, "only a motion from rest to rest is solved")
-    if grid.size > MAX_GRID:  # every k-th grid point, the ends kept
-        keep = np.unique(np.round(np.linspace(0, grid.size - 1, MAX_GRID)).astype(int))
+    if grid.size > max_grid:  # every k-th grid point, the ends kept
+        keep = np.unique(np.round(np.linspace(0, grid.size - 1, max_grid)).astype(int))
         grid, sd = grid[keep], sd[keep]
     path = law.path
     n = grid.size

@@ -167,3 +167,27 @@ def test_plan_file_round_trips_the_swing_fields_and_older_files_read_nan(lab, sc
         old = read_trajectory(f).info
     assert math.isnan(old.residual_swing_rad) and math.isnan(old.time_to_settled_s) and math.isnan(old.total_jerk)
     assert old.swing_shaper == "" and old.duration_s == traj.info.duration_s
+
+
+def test_settled_law_is_solved_again_beyond_the_shapers_restretch():
+    """A hard case kept from ``benchmarks/plan.py --random 50 --seed 0`` (forwarder random#49-loaded, a lift to
+    10 m over the bunk): the settled law's first solution exceeds the boom's acceleration limit between its grid
+    points by more than the shapers' ``MAX_RESTRETCH`` (the jerk box where the joint path curves). It is solved
+    again under scaled limits and arrives still: a dense re-check by a separate verifier passes the limits, the
+    collisions and the 0.03 rad residual swing. (Planner 7 kept a uniform stretch that ended swinging 0.2 rad.)"""
+    from motionlib.planning.planner import MAX_RESTRETCH, SETTLED_MAX_RESTRETCH
+
+    crane, scene = Crane.load("forwarder"), Scene.load(OBSTACLES / "forwarder-site.yaml")
+    start = [-0.5982259851371268, 1.141553504926218, -1.4717587733742648, 1.9090607391595473]
+    goal = [-5.292915789061233, -1.4263383674528873, 10.129119349703467]
+    res = Planner(crane, scene, PlanOptions(loaded=True)).plan(start, goal).raise_for_status()
+    swing = res.stages["swing"].details
+    assert swing["shaper"] == "settled" and swing["residual_rad"] <= TOL
+    first = swing["rejected"]["settled (limits x 1.000, 80 points)"]
+    ratio = float(first.split(": ")[1].split(" x ")[0])
+    assert MAX_RESTRETCH < ratio <= SETTLED_MAX_RESTRETCH
+    assert swing["settled_law"]["limit_scale"] < 1.0 / ratio
+    tr = res.trajectory
+    verifier = Verifier(crane, scene, limits_for(crane), True, 0.01)
+    report = verifier.verify(tr.t, tr.q, tr.qd, tr.qdd, swing_tolerance_rad=TOL)
+    assert report.ok, report.problems
