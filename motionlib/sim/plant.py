@@ -846,9 +846,11 @@ class SimulatedCrane:
         """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the
         tip ``I_pivot`` (kg m^2) (module docstring, "Grasp and release";
         :class:`~motionlib.model.hanging_body.HangingBody`)."""
-        log = None if self.held_log is None else HeldLog(*self.held_log)
-        body = HangingBody.of(self._mass, self.length_m, log)
+        body = self._hanging_body()
         return body.mass_kg, body.depth_m, body.inertia_kg_m2
+
+    def _hanging_body(self) -> HangingBody:
+        return HangingBody.of(self._mass, self.length_m, None if self.held_log is None else HeldLog(*self.held_log))
 
     def _schedule(self, delay_s: float | None, key: str) -> None:
         """The pendulum of :meth:`pendulum` from ``t + delay_s`` on (in :func:`plant_period`)."""
@@ -856,7 +858,7 @@ class SimulatedCrane:
             raise InputError(f"crane {self.crane.name!r}: dynamics.{key} is missing (the grapple's timing)")
         if self.params.model == "second_order" and self._inertia is None:
             raise InputError(f"crane {self.crane.name!r}: a grasped log needs joint_inertia (SimParams or the file)")
-        body = HangingBody(*self.pendulum())
+        body = self._hanging_body()
         prm, l0 = self.arrays.prm, self.length_m
         prm[P_NEXT_MASS] = body.mass_kg
         # l / L_eff (HangingBody.equivalent_length_m = I_pivot / (M D)); d / l
