@@ -14,6 +14,7 @@ The radius is :attr:`~motionlib.planning.planner.PlanOptions.start_escape_m`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,6 +54,15 @@ class EscapeChecker:
         """Whether each tip point (..., 3) (m) lies within ``radius_m`` of the start's."""
         return np.linalg.norm(np.asarray(tips, dtype=float) - self.start_tip, axis=-1) <= self.radius_m
 
+    def _split(self, near: np.ndarray, hits: Callable[[CollisionChecker, np.ndarray], np.ndarray]) -> np.ndarray:
+        """(n,) bool: ``hits(checker, rows)`` of the exact checker on the rows ``near`` the start, of the margin
+        checker on the others."""
+        hit = np.zeros(len(near), dtype=bool)
+        for checker, rows in ((self.exact, near), (self.margin, ~near)):
+            if rows.any():
+                hit[rows] = hits(checker, rows)
+        return hit
+
     def _for_tip(self, p_tip: Any) -> CollisionChecker:
         return self.exact if bool(self._near(np.asarray(p_tip, dtype=float)[:3])) else self.margin
 
@@ -78,19 +88,11 @@ class EscapeChecker:
     def tips_in_collision(self, p_tip: Any, loaded: bool = False, yaw: np.ndarray | None = None) -> np.ndarray:
         """:meth:`CollisionChecker.tips_in_collision` of many tip points (n, 3) -> (n,) bool."""
         tips = np.asarray(p_tip, dtype=float)
-        near = self._near(tips)
-        hit = np.zeros(len(tips), dtype=bool)
-        for checker, rows in ((self.exact, near), (self.margin, ~near)):
-            if rows.any():
-                hit[rows] = checker.tips_in_collision(tips[rows], loaded, None if yaw is None else yaw[rows])
-        return hit
+        return self._split(self._near(tips), lambda checker, rows: checker.tips_in_collision(
+            tips[rows], loaded, None if yaw is None else yaw[rows]))
 
     def configurations_in_collision(self, q: Any, loaded: bool = False) -> np.ndarray:
         """:meth:`CollisionChecker.configurations_in_collision` of many configurations (n, 4 or 5) -> (n,) bool."""
         qs = np.asarray(q, dtype=float)
-        near = self._near(self.crane.fk_batch(qs[:, :4]))
-        hit = np.zeros(len(qs), dtype=bool)
-        for checker, rows in ((self.exact, near), (self.margin, ~near)):
-            if rows.any():
-                hit[rows] = checker.configurations_in_collision(qs[rows], loaded)
-        return hit
+        return self._split(self._near(self.crane.fk_batch(qs[:, :4])),
+                           lambda checker, rows: checker.configurations_in_collision(qs[rows], loaded))

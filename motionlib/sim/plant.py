@@ -608,7 +608,7 @@ class SimulatedCrane:
     capacity : tuple of n float or None
         Each actuated joint's relief capacity ``p_relief d_i`` (N m; N for the telescope) when the plant
         bounds the pressure (second order, the crane file's ``hydraulics.relief_pressure``), else None.
-    held_log : tuple of 3 float or None
+    held_log : HeldLog or None
         The log the grapple holds or closes on (:meth:`grasp`): mass (kg), depth (m), inertia (kg m^2).
     arrays : PlantArrays
         The arrays :func:`plant_period` integrates (the state lives there; the attributes above are
@@ -744,7 +744,7 @@ class SimulatedCrane:
             inv_inertia, self._surfaces.planes(self.grapple) if self._surfaces is not None else _NO_PLANES,
         )
         self.set_payload(self.payload_frac)
-        self.held_log: tuple[float, float, float] | None = None
+        self.held_log: HeldLog | None = None
 
     # --------------------------------------------------------------- read-out
     t = property(lambda self: float(self.arrays.clock[C_T]), doc="Simulated time (s).")
@@ -832,7 +832,7 @@ class SimulatedCrane:
         m = float(check_scalar(mass_kg, "mass_kg", gt=0.0))
         d = float(check_scalar(depth_m, "depth_m", gt=0.0, le=2.0 * self.length_m))
         i = float(check_scalar(inertia_kg_m2, "inertia_kg_m2", ge=0.0))
-        self.held_log = (m, d, i)
+        self.held_log = HeldLog(m, d, i)
         self._schedule(self.crane.model.grapple_close_time, "grapple_close_time")
 
     def release(self) -> None:
@@ -846,11 +846,8 @@ class SimulatedCrane:
         """The hanging body with :attr:`held_log`: mass ``M`` (kg), centre of mass ``D`` (m) and inertia about the
         tip ``I_pivot`` (kg m^2) (module docstring, "Grasp and release";
         :class:`~motionlib.model.hanging_body.HangingBody`)."""
-        body = self._hanging_body()
+        body = HangingBody.of(self._mass, self.length_m, self.held_log)
         return body.mass_kg, body.depth_m, body.inertia_kg_m2
-
-    def _hanging_body(self) -> HangingBody:
-        return HangingBody.of(self._mass, self.length_m, None if self.held_log is None else HeldLog(*self.held_log))
 
     def _schedule(self, delay_s: float | None, key: str) -> None:
         """The pendulum of :meth:`pendulum` from ``t + delay_s`` on (in :func:`plant_period`)."""
@@ -858,7 +855,7 @@ class SimulatedCrane:
             raise InputError(f"crane {self.crane.name!r}: dynamics.{key} is missing (the grapple's timing)")
         if self.params.model == "second_order" and self._inertia is None:
             raise InputError(f"crane {self.crane.name!r}: a grasped log needs joint_inertia (SimParams or the file)")
-        body = self._hanging_body()
+        body = HangingBody.of(self._mass, self.length_m, self.held_log)
         prm, l0 = self.arrays.prm, self.length_m
         prm[P_NEXT_MASS] = body.mass_kg
         # l / L_eff (HangingBody.equivalent_length_m = I_pivot / (M D)); d / l
