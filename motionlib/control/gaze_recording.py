@@ -193,7 +193,7 @@ def select_by_gaze(
     **kw
         ``L1``, ``L2``, ``v_manual_m_s``, ``max_candidates`` of the selection.
     """
-    util = Utility(utility)
+    util = Utility.parse(utility)
     try:
         estimate = recording.estimate()
     except InputError as exc:

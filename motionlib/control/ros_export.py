@@ -13,10 +13,10 @@ serialised by the ``rosbags`` package; no ROS installation):
     ``geometry_msgs/msg/PoseStamped`` of the tip on :data:`TOPIC_TIP_POSE`, stamped epoch + ``t``; and once, at
     the first sample's stamp, the whole tip path as a ``nav_msgs/msg/Path`` on :data:`TOPIC_TIP_PATH`.
 
-Joint names are the URDF's (:func:`joint_names`, :mod:`motionlib.model.urdf`): ``slew``, ``boom``, ``jib``,
-``telescope`` and, with a grapple rotator, ``rotator``. SI units (rad, m, rad/s, m/s, rad/s^2, m/s^2); the tip
-in the frame :data:`BASE_FRAME` (the URDF's root link, motionlib's base frame). Times are whole nanoseconds:
-``round(t * 1e9)``.
+Joint names are the URDF's (:func:`~motionlib.model.limits.joint_labels`, :mod:`motionlib.model.urdf`): ``slew``,
+``boom``, ``jib``, ``telescope`` and, with a grapple rotator, ``rotator``. SI units (rad, m, rad/s, m/s, rad/s^2,
+m/s^2); the tip in the frame :data:`BASE_FRAME` (the URDF's root link, motionlib's base frame). Times are whole
+nanoseconds: ``round(t * 1e9)``.
 
 The container follows the output's name: ``*.mcap`` is one MCAP file (profile ``ros2``; Foxglove opens it);
 any other name is a new rosbag2 directory (metadata version :data:`ROSBAG2_VERSION`, MCAP storage, as
@@ -35,10 +35,11 @@ from typing import Any, Final
 
 import numpy as np
 
+from ..checks import check_int
 from ..errors import InputError, LibraryFileError
 from ..fileio import atomic_directory, atomic_output, verify_sealed
 from ..library.store import LIBRARY_SCHEMA, Library
-from ..model.crane_model import JOINT_NAMES, ROTATOR_NAME
+from ..model.limits import joint_labels
 from ..model.urdf import LINK_OF_FRAME
 from ..planning.trajectory import TRAJECTORY_SCHEMA, Trajectory, load_plan
 from .runlog import RUNLOG_SCHEMA, read_runlog
@@ -88,11 +89,6 @@ class RosExport:
     last_stamp_ns: int
 
 
-def joint_names(with_rotator: bool) -> tuple[str, ...]:
-    """The URDF joint names of q1..q4 (and q5, the grapple rotator) in sample column order."""
-    return JOINT_NAMES + ((ROTATOR_NAME,) if with_rotator else ())
-
-
 @functools.cache
 def _typestore() -> Any:
     from rosbags.typesys import Stores, get_typestore
@@ -134,8 +130,8 @@ Topic = tuple[str, list[tuple[int, Any]]]
 def trajectory_messages(traj: Trajectory, epoch_ns: int, where: str) -> tuple[tuple[str, ...], dict[str, Topic]]:
     """The joint names and the :data:`TOPIC_TRAJECTORY` message of a trajectory (see the module docstring)."""
     types = _typestore().types
-    names = joint_names(traj.rotator is not None)
     q, qd, qdd = (np.ascontiguousarray(a, dtype=np.float64) for a in traj.full_samples())
+    names = joint_labels(q.shape[1])
     offsets = stamps_ns(traj.t, 0, where)
     none = np.empty(0, dtype=np.float64)
     points = [
@@ -162,7 +158,7 @@ def runlog_messages(log: dict[str, Any], epoch_ns: int, where: str) -> tuple[tup
     if rotator is not None:
         q, qd = np.column_stack([q, rotator[:, 0]]), np.column_stack([qd, rotator[:, 1]])
     q, qd = np.ascontiguousarray(q, dtype=np.float64), np.ascontiguousarray(qd, dtype=np.float64)
-    names = joint_names(rotator is not None)
+    names = joint_labels(q.shape[1])
     stamps = [int(s) for s in stamps_ns(log["t"], epoch_ns, where)]
     none = np.empty(0, dtype=np.float64)
     states = [
@@ -247,9 +243,7 @@ def export_ros(path: str | Path, output: str | Path, row: int | None = None, epo
     """
     path, output = Path(path), Path(output)
     where = str(path)
-    if isinstance(epoch_ns, bool) or not isinstance(epoch_ns, int | np.integer) or not 0 <= epoch_ns <= MAX_STAMP_NS:
-        raise InputError(f"epoch_ns: expected an integer in [0, {MAX_STAMP_NS}], got {epoch_ns!r:.40}")
-    epoch_ns = int(epoch_ns)
+    epoch_ns = check_int(epoch_ns, "epoch_ns", 0, MAX_STAMP_NS)
     kind = verify_sealed(path, KINDS)
     if kind == RUNLOG_SCHEMA and row is None:
         names, topics = runlog_messages(read_runlog(path), epoch_ns, where)

@@ -78,12 +78,6 @@ class Command:
     utility: Utility
     selection: dict[str, float] = field(default_factory=dict)
 
-    def describe(self) -> str:
-        """``to-pile: point pile-left (3.500, 5.700, 3.000) m by time`` for messages."""
-        where = "target" if self.binding == "target" else f"{self.binding} {self.ref}"
-        xyz = ", ".join(f"{v:.3f}" for v in self.target_p)
-        return f"{self.name}: {where} ({xyz}) m by {self.utility.value}"
-
 
 @dataclass(frozen=True)
 class CommandSet:

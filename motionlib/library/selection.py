@@ -121,6 +121,14 @@ class Utility(enum.StrEnum):
     ENERGY = "energy"
     ROBUST = "robust"
 
+    @classmethod
+    def parse(cls, value: str | Utility) -> Utility:
+        """A utility from its name or a Utility; :class:`~motionlib.errors.InputError` names the choices."""
+        try:
+            return cls(value)
+        except ValueError as exc:
+            raise InputError(f"utility: expected one of {[u.value for u in cls]}, got {value!r}") from exc
+
 
 class SelectionStatus(enum.Enum):
     """Outcome of :meth:`SelectionIndex.select`."""
@@ -572,10 +580,7 @@ class SelectionIndex:
         p = _within(check_vector(target_p, 3, "target_p"), big, "target_p").copy()  # kept for the diagnostics
         l1 = check_scalar(L1, "L1", gt=0.0, le=big)
         l2 = check_scalar(L2, "L2", gt=0.0, le=big)
-        try:
-            util = Utility(utility)
-        except ValueError as exc:
-            raise InputError(f"utility: expected one of {[u.value for u in Utility]}, got {utility!r}") from exc
+        util = Utility.parse(utility)
         if isinstance(max_candidates, bool) or not isinstance(max_candidates, int | np.integer) or max_candidates < 1:
             raise InputError(f"max_candidates: expected an integer >= 1, got {max_candidates!r}")
         sigma = v_manual = np.nan

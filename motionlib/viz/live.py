@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..checks import check_scalar, check_vector
+from ..checks import check_int, check_scalar, check_vector
 from ..control.control_types import Mode
 from ..control.gaze_recording import GazeRecording
 from ..errors import InputError, MotionlibError
@@ -104,14 +104,10 @@ class LiveOptions:
     def __post_init__(self) -> None:
         if not isinstance(self.host, str) or not self.host:
             raise InputError(f"host: expected an address, got {self.host!r}")
-        if isinstance(self.port, bool) or not isinstance(self.port, int) or not 0 <= self.port <= 65535:
-            raise InputError(f"port: expected an integer in [0, 65535], got {self.port!r}")
+        object.__setattr__(self, "port", check_int(self.port, "port", 0, 65535))
         object.__setattr__(self, "mode", Mode.parse(self.mode).value)  # M1..M6 as the page shows it
         operator_kind(self.operator)
-        try:
-            Utility(self.utility)
-        except ValueError as exc:
-            raise InputError(f"utility: expected one of {[u.value for u in Utility]}, got {self.utility!r}") from exc
+        Utility.parse(self.utility)
         check_scalar(self.update_hz, "update_hz", gt=0.0, le=200.0)
         if self.start_q is not None:
             check_vector(self.start_q, 4, "start_q")

@@ -60,7 +60,6 @@ class LiveScene:
         self.api = server.scene
         self.crane = crane
         self.segments = segments
-        self.loaded = False
         self.drawing = CraneDrawing(crane, False, segments)
         api = self.api
         api.set_up_direction("+z")
@@ -93,8 +92,7 @@ class LiveScene:
         api.add_mesh_simple("/crane/column", *self.drawing.column(), color=rgb(COLUMN_COLOUR))
         q = np.asarray(q, dtype=np.float64)
         self._arm = api.add_mesh_simple("/crane/arm", *self.drawing.arm(q), color=rgb(ARM_COLOUR))
-        tip = crane.fk(q)
-        self._grapple = self._add_grapple(q, tip, tip - np.array([0.0, 0.0, 1.0]))
+        self._grapple = self._add_grapple(q)
         self._path: Any = None
         self._target = api.add_icosphere(
             "/motion/target", radius=MARKER_RADIUS_M, color=rgb(PATH_COLOUR), visible=False
@@ -106,10 +104,9 @@ class LiveScene:
         rot = hang_rotation(np.asarray(grapple) - tip)
         return (vertices - tip) @ rot.T + tip
 
-    def _add_grapple(self, q: np.ndarray, tip: np.ndarray, grapple: np.ndarray) -> Any:
-        _, triangles = self.drawing.grapple(q)
-        vertices = self._grapple_vertices(q, tip, grapple)
-        return self.api.add_mesh_simple("/crane/grapple", vertices, triangles, color=rgb(GRAPPLE_COLOUR))
+    def _add_grapple(self, q: np.ndarray) -> Any:
+        """The grapple mesh at ``q``, hanging straight down (:meth:`show` turns it toward the swing)."""
+        return self.api.add_mesh_simple("/crane/grapple", *self.drawing.grapple(q), color=rgb(GRAPPLE_COLOUR))
 
     def start_motion(self, path_tip: np.ndarray, target: np.ndarray, loaded: bool, q: np.ndarray) -> None:
         """Show a motion's planned tip path (M, 3) and target (3,) (m); redraw the grapple with or without a log."""
@@ -120,12 +117,10 @@ class LiveScene:
         self._path = self.api.add_line_segments("/motion/path", segments, colors=rgb(PATH_COLOUR), thickness=0.03)
         self._target.position = tuple(float(x) for x in target)
         self._target.visible = True
-        if loaded != self.loaded:
-            self.loaded = loaded
+        if loaded != self.drawing.loaded:
             self.drawing = CraneDrawing(self.crane, loaded, self.segments)
             self._grapple.remove()
-            tip = self.crane.fk(q)
-            self._grapple = self._add_grapple(q, tip, tip - np.array([0.0, 0.0, 1.0]))
+            self._grapple = self._add_grapple(q)
 
     def show(self, q: Any, tip: Any, grapple: Any) -> None:
         """Move the arm to ``q`` (4,) and hang the grapple from ``tip`` (3,) toward ``grapple`` (3,) (m)."""
