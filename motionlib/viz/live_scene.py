@@ -18,7 +18,7 @@ from plotly.colors import hex_to_rgb
 
 from ..model.kinematics import Crane
 from ..model.scene import Scene
-from .meshes import box_mesh, hang_rotation, merge_meshes, obstacle_mesh
+from .meshes import hang_rotation, scene_meshes
 from .viewer import (
     ARM_COLOUR,
     COLUMN_COLOUR,
@@ -31,8 +31,6 @@ from .viewer import (
     base_layout,
 )
 
-#: Half width (m) of the ground square drawn about the slewing axis.
-GROUND_EXTENT_M = 10.0
 #: Radius (m) of the spheres marking the named points and the target.
 MARKER_RADIUS_M = 0.06
 
@@ -76,16 +74,12 @@ class LiveScene:
         server.initial_camera.position = tuple(look_at + half * np.array([0.5, -0.9, 0.6]))
         server.initial_camera.look_at = tuple(look_at)
         server.initial_camera.up = (0.0, 0.0, 1.0)
-        g = scene.ground_z
-        extent = GROUND_EXTENT_M
-        ground = box_mesh(np.array([-extent, -extent, g - 0.01]), np.array([extent, extent, g]))
+        ground, obstacles, regions = scene_meshes(scene, segments)
         api.add_mesh_simple("/scene/ground", *ground, color=rgb(GROUND_COLOUR), flat_shading=True)
-        if scene.obstacles:
-            v, t, _ = merge_meshes([obstacle_mesh(ob, segments) for ob in scene.obstacles])
-            api.add_mesh_simple("/scene/obstacles", v, t, color=rgb(OBSTACLE_COLOUR), flat_shading=True)
-        if scene.regions:
-            v, t, _ = merge_meshes([box_mesh(r.lower, r.upper) for r in scene.regions])
-            api.add_mesh_simple("/scene/regions", v, t, color=rgb(REGION_COLOUR), opacity=0.15)
+        if obstacles is not None:
+            api.add_mesh_simple("/scene/obstacles", *obstacles[:2], color=rgb(OBSTACLE_COLOUR), flat_shading=True)
+        if regions is not None:
+            api.add_mesh_simple("/scene/regions", *regions[:2], color=rgb(REGION_COLOUR), opacity=0.15)
         for name, p in scene.points.items():
             api.add_icosphere(f"/points/{name}", radius=MARKER_RADIUS_M, color=(20, 20, 20), position=tuple(p))
             api.add_label(f"/points/{name}/label", name, position=(0.0, 0.0, 2 * MARKER_RADIUS_M))

@@ -13,7 +13,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from ..checks import check_scalar
-from ..model.scene import Obstacle
+from ..model.scene import Obstacle, Scene
 
 
 def hull_mesh(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,6 +111,25 @@ def merge_meshes(meshes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarra
     vertices = np.concatenate([v for v, _ in meshes])
     triangles = np.concatenate([t + o for (_, t), o in zip(meshes, offsets, strict=True)])
     return vertices, triangles, np.repeat(np.arange(len(meshes)), counts)
+
+
+#: Half width (m) of the ground square drawn about the slewing axis.
+GROUND_EXTENT_M = 10.0
+
+#: A merged mesh: vertices (n, 3) m, triangles (m, 3) and each vertex's part index (n,) (:func:`merge_meshes`).
+MergedMesh = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
+def scene_meshes(scene: Scene, segments: int = 16, extent_m: float = GROUND_EXTENT_M
+                 ) -> tuple[tuple[np.ndarray, np.ndarray], MergedMesh | None, MergedMesh | None]:
+    """The meshes a view draws of a scene: the ground (a 1 cm slab ``extent_m`` (m) about the slewing axis, its top
+    at ``scene.ground_z``), the obstacles merged into one mesh and the regions into another (None when the scene has
+    none), each vertex tagged with its obstacle's or region's index in the scene."""
+    g = scene.ground_z
+    ground = box_mesh(np.array([-extent_m, -extent_m, g - 0.01]), np.array([extent_m, extent_m, g]))
+    obstacles = merge_meshes([obstacle_mesh(ob, segments) for ob in scene.obstacles]) if scene.obstacles else None
+    regions = merge_meshes([box_mesh(r.lower, r.upper) for r in scene.regions]) if scene.regions else None
+    return ground, obstacles, regions
 
 
 def z_to(direction: np.ndarray) -> np.ndarray:

@@ -46,7 +46,7 @@ from ..model.embedded import CRANE_ATTR, SCENE_ATTR, embedded_models
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import MAX_SAMPLES, TRAJECTORY_SCHEMA, Trajectory, check_trajectory, read_trajectory
-from .meshes import CapsuleMesh, box_mesh, merge_meshes, obstacle_mesh
+from .meshes import GROUND_EXTENT_M, CapsuleMesh, merge_meshes, scene_meshes
 
 # Colours (tests/test_viewer.py finds the arm in screenshots by ARM_COLOUR's hue).
 ARM_COLOUR = "#f07a10"  # boom, jib, telescope
@@ -226,7 +226,7 @@ class CraneDrawing:
         return out
 
 
-def scene_traces(scene: Scene, segments: int = 16, extent_m: float = 10.0) -> list[Any]:
+def scene_traces(scene: Scene, segments: int = 16, extent_m: float = GROUND_EXTENT_M) -> list[Any]:
     """Traces of a scene: the ground, the obstacles, the regions and the named points.
 
     Obstacles are one mesh and regions one translucent mesh (hovering shows each
@@ -240,16 +240,15 @@ def scene_traces(scene: Scene, segments: int = 16, extent_m: float = 10.0) -> li
     extent_m : float
         Half width (m) of the ground square drawn about the slewing axis.
     """
-    g = scene.ground_z
-    ground = box_mesh(np.array([-extent_m, -extent_m, g - 0.01]), np.array([extent_m, extent_m, g]))
-    traces: list[Any] = [mesh_trace(*ground, GROUND_COLOUR, "ground", hover=f"ground, z = {g} m")]
-    if scene.obstacles:
-        v, t, owner = merge_meshes([obstacle_mesh(ob, segments) for ob in scene.obstacles])
+    ground, obstacles, regions = scene_meshes(scene, segments, extent_m)
+    traces: list[Any] = [mesh_trace(*ground, GROUND_COLOUR, "ground", hover=f"ground, z = {scene.ground_z} m")]
+    if obstacles is not None:
+        v, t, owner = obstacles
         labels = [f"{ob.name} ({ob.shape})" for ob in scene.obstacles]
         hover = [labels[i] for i in owner]
         traces.append(mesh_trace(v, t, OBSTACLE_COLOUR, "obstacles", hover=hover, showlegend=True))
-    if scene.regions:
-        v, t, owner = merge_meshes([box_mesh(r.lower, r.upper) for r in scene.regions])
+    if regions is not None:
+        v, t, owner = regions
         hover = [f"region {scene.regions[i].name}" for i in owner]
         traces.append(mesh_trace(v, t, REGION_COLOUR, "regions", opacity=0.15, hover=hover, showlegend=True))
     if scene.points:
