@@ -107,6 +107,12 @@ class RunLog:
             return float(self._rows[-1][0])
         return float(self._blocks[-1][-1, 0]) if self._n_blocks else 0.0
 
+    def peak_feedback_n(self) -> float:
+        """The largest grip force (N) on either stick (a stick's two axes combined) over the run; 0 without
+        force feedback."""
+        fb = np.array(self._feedback, dtype=np.float64).reshape(-1, 8)[:, :4]
+        return float(np.max(np.hypot(fb[:, 0::2], fb[:, 1::2]), initial=0.0))
+
     def arrays(self, crane: Crane | None = None) -> dict[str, np.ndarray]:
         """The log as arrays.
 

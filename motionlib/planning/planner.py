@@ -148,8 +148,11 @@ class PlanStatus(Enum):
 #: 8: a loaded plan's pendulum is the grapple and the crane file's log (``dynamics.log_mass``), as the simulated
 #: crane swings once it holds that log (:meth:`~motionlib.planning.swing.Pendulum.from_crane`); a settled law that
 #: exceeds a limit between its grid points by up to ``SETTLED_MAX_RESTRETCH`` (was ``MAX_RESTRETCH``) is solved
-#: again under scaled limits, and one whose dense swing exceeds the tolerance once on a grid twice as fine.
-PLANNER_VERSION = 8
+#: again under scaled limits, and one whose dense swing exceeds the tolerance once on a grid twice as fine; 9: a
+#: settled law that exceeds a limit by more than that is solved once on the grid twice as fine too, and a joint path
+#: whose telescope profiles all leave the limits (a path along a joint limit) is a candidate on its own
+#: configurations. Both change only plans that had no settled law or no usable candidate.
+PLANNER_VERSION = 9
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -182,7 +185,9 @@ MAX_RESTRETCH = 1.2
 #: 0.16-0.42 rad of swing and 19-30 s to settled, where the re-solved laws arrive still in 12-19 s.
 SETTLED_MAX_RESTRETCH = 2.0
 #: Grid points of the settled law's second solve, in units of ``MAX_GRID``, when the first one's densely predicted
-#: swing exceeds the tolerance (a long motion: a 13 s forwarder motion on 80 points leaves 0.034 rad, 0.024 on 160).
+#: swing exceeds the tolerance (a long motion: a 13 s forwarder motion on 80 points leaves 0.034 rad, 0.024 on 160)
+#: or a limit by more than ``SETTLED_MAX_RESTRETCH`` (forwarder random#16: the boom's acceleration 3.5x on 80 points;
+#: on 160, 1.08x, then solved again under scaled limits, it arrives still in 24.5 s, where the shapers left 0.044 rad).
 SETTLED_REFINE = 2
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
@@ -885,8 +890,9 @@ class Planner:
         and the jerk box, if its predicted swing is within the tolerance and it verifies; else None.
 
         Its swing and its limits hold at the grid points of the problem only. A motion whose densely predicted
-        swing exceeds the tolerance on a thinned grid is solved once more on ``SETTLED_REFINE`` times the
-        points (a long motion's intervals grow with it); one that exceeds a limit between them by a ratio up to
+        swing exceeds the tolerance, or a limit between the points by more than ``SETTLED_MAX_RESTRETCH``, on a
+        thinned grid is solved once more on ``SETTLED_REFINE`` times the points (a long motion's intervals grow
+        with it, and a sharp bend of the joint path falls between them); one that exceeds a limit by a ratio up to
         ``SETTLED_MAX_RESTRETCH`` is solved again under limits scaled down by that ratio (at most
         ``SHAPING_RESTRETCHES`` times). The solver's diagnostics go into ``details["settled_law"]``, a
         rejection into ``rejected``.
@@ -904,20 +910,23 @@ class Planner:
             motion = shape(settled.law, Shaper("settled", ((0.0, 1.0),), o.jerk_box_s), self.crane, self.pendulum,
                            o.swing_tolerance_rad, o.dt_s)
             label = f"settled (limits x {scale:.3f}, {settled.diagnostics['n_grid']} points)"
+            refinable = max_grid == MAX_GRID and settled.diagnostics["n_grid"] == max_grid  # thinned, not refined
             if motion.swing.residual_rad > o.swing_tolerance_rad:
                 rejected[label] = f"predicted residual swing {motion.swing.residual_rad:.3f} rad"
-                if max_grid != MAX_GRID or settled.diagnostics["n_grid"] < max_grid:  # refined, or not thinned
+            else:
+                report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, o.swing_tolerance_rad,
+                                                   start_q, goal_p)
+                if report.ok:
+                    return motion
+                rejected[label] = report.problems[0]
+                if report.problems != report.limits:  # only limits
                     return None
-                max_grid = SETTLED_REFINE * MAX_GRID
-                continue
-            report = self.full_verifier.verify(motion.t, motion.q, motion.qd, motion.qdd, o.swing_tolerance_rad,
-                                               start_q, goal_p)
-            if report.ok:
-                return motion
-            rejected[label] = report.problems[0]
-            if report.problems != report.limits or report.limit_ratio > SETTLED_MAX_RESTRETCH:  # only limits
+                if report.limit_ratio <= SETTLED_MAX_RESTRETCH:
+                    scale /= report.limit_ratio * (1.0 + LIMIT_TOLERANCE)
+                    continue
+            if not refinable:
                 return None
-            scale /= report.limit_ratio * (1.0 + LIMIT_TOLERANCE)
+            max_grid = SETTLED_REFINE * MAX_GRID
         return None
 
     def _verified_shaping(self, motion: ShapedMotion, tolerance: float | None, rejected: dict[str, str],
@@ -969,7 +978,7 @@ class Planner:
         s_chk = spline_check_grid(spline, JOINT_CANDIDATE_CHECK_STEP_M)
         if not all(self._grapple_valid(p) for p in spline(s_chk)):
             return "its tip spline brings the grapple within the clearance of an obstacle"
-        candidates[name], red_details[name] = self._candidate(spline, start_full, initial, None if on_branch else q_sub)
+        candidates[name], red_details[name] = self._candidate(spline, start_full, initial, q_sub, on_branch)
         return ""
 
     def _ik_gives_back(self, q: np.ndarray) -> bool:
@@ -1097,7 +1106,7 @@ class Planner:
 
     def _candidate(
         self, spline: TipSpline, start_full: np.ndarray, initial: TelescopeProfile | None,
-        joint_q: np.ndarray | None = None,
+        joint_q: np.ndarray | None = None, on_branch: bool = True,
     ) -> tuple[_Candidate, dict[str, Any]]:
         """Telescope profiles on one tip path, screened (see :meth:`_screen`).
 
@@ -1107,10 +1116,11 @@ class Planner:
         profiles are tried. When IPOPT fails (its reason kept under ``optimised``), a joint path's
         fitted profile and then the fallbacks are still tried. A path whose slew, unwrapped from the start's
         (:meth:`~motionlib.model.kinematics.Crane.slew_along`), leaves the slew limits has none (its reason
-        under ``path``). ``start_full`` (4,) or (5,) with the rotator. With ``joint_q``
-        (m, 4), the joint polyline whose tips are the spline's waypoints (a start off the closed-form
-        IK's branch), its own configurations are the only joint path (profile ``joint``, recorded with
-        the fitted telescope profile ``initial``).
+        under ``path``). ``start_full`` (4,) or (5,) with the rotator. ``joint_q`` (m, 4) is the joint
+        polyline whose tips are the spline's waypoints: its own configurations (profile ``joint``, recorded
+        with the fitted telescope profile ``initial``) are the only joint path from a start off the
+        closed-form IK's branch (``on_branch`` False), and the last fallback on it (a path along a joint
+        limit, which the IK with a smooth telescope profile crosses).
         """
         crane, o = self.crane, self.options
         start_q = start_full[:4]
@@ -1125,7 +1135,7 @@ class Planner:
             return _Candidate(spline, s_grid, {}, {}, {"path": reason}), {"status": "slew", "reason": reason}
         rotators: dict[str, TelescopeProfile] = {}
         profiles: dict[str, TelescopeProfile] = {}
-        if joint_q is not None and initial is not None:
+        if joint_q is not None and initial is not None and not on_branch:
             profiles[JOINT_PROFILE] = initial
             q_paths, rejected = self._screen(profiles, spline, s_grid, p_grid, start_q, q5_start, rotators, joint_q)
             details = {"status": "skipped", "reason": OFF_BRANCH_REASON, "rejected": rejected}
@@ -1151,6 +1161,11 @@ class Planner:
             q_paths, more = self._screen(fallbacks, spline, s_grid, p_grid, start_q, q5_start, rotators)
             rejected.update(more)
             profiles.update(fallbacks)
+        if not q_paths and joint_q is not None and initial is not None:
+            own = {JOINT_PROFILE: initial}
+            q_paths, more = self._screen(own, spline, s_grid, p_grid, start_q, q5_start, rotators, joint_q)
+            rejected.update(more)
+            profiles.update(own)
         if rotators:
             details["rotator"] = {k: v.control_points.tolist() for k, v in rotators.items()}
         return _Candidate(spline, s_grid, profiles, q_paths, rejected, rotators), {**details, "rejected": rejected}

@@ -27,8 +27,11 @@ with ``J = 1/2 int s_ddd^2 dt`` the path's total jerk (:data:`JERK_WEIGHT`).
   of ``dt_i = 2 ds_i / (v_i + v_{i+1})`` (as the first-order hold of
   :func:`~motionlib.planning.swing.swing_response`) and integrated exactly (:func:`_pendulum_step`), as
   unknowns of the problem (multiple shooting: sparse derivatives) with the path speeds.
-* IPOPT (CasADi) solves it from TOPPRA's profile within ``max_iter`` iterations (a budget in
-  iterations, so the result does not depend on the machine); only ``Solve_Succeeded`` counts. The
+* IPOPT (CasADi) solves it within ``max_iter`` iterations (a budget in iterations, so the result does not
+  depend on the machine); only ``Solve_Succeeded`` counts. It starts from TOPPRA's law shaped by the ZVD
+  shaper (:func:`~motionlib.planning.shaping.zvd_impulses`), whose swing ends near zero for every rod length of
+  the robust constraint: from TOPPRA's own profile (slowed 1.1x, planner 8) the terminal swing starts violated
+  and IPOPT spent 3x the iterations (200-450 per forwarder motion) getting back to it, with huge multipliers. The
   residual swing is bounded at ``margin`` (:data:`SWING_MARGIN`) times the tolerance: the planner
   predicts the sampled law's swing again with the exact discretisation and verifies it densely.
 
@@ -41,6 +44,7 @@ time-optimal path parameterization based on reachability analysis*, IEEE T-RO 34
 from __future__ import annotations
 
 import enum
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -51,6 +55,7 @@ import numpy as np
 
 from ..errors import PlanningError
 from ..model.limits import Limit
+from .shaping import zvd_impulses
 from .swing import Pendulum, tip_velocity
 from .time_law import TimeLaw
 
@@ -81,8 +86,6 @@ MAX_ITER = 1000
 #: crane ended at 0.027 rad with the nominal model alone, 0.015 rad with +-5 % (7 % longer) and 0.009 rad with
 #: +-10 % (14 % longer); assumption.
 ROBUST_LENGTHS = (-0.05, 0.0, 0.05)
-#: IPOPT starts from TOPPRA's profile slowed down this many times (strictly inside its limits).
-INITIAL_STRETCH = 1.1
 #: Smallest interior path speed (units of s per second): keeps every interval's time finite.
 MIN_SPEED = 1e-4
 
@@ -154,26 +157,35 @@ def _linear_rows(limits: Sequence[Limit], path: Any, grid: np.ndarray
     return x_max, rows
 
 
-def _pendulum_step(pendulum: Pendulum) -> ca.Function:
-    """One grid interval of (1) for both axes, exactly: ``(z, v0, v1, d0, d1, h) -> z_next``.
+def _pendulum_values(pendulum: Pendulum) -> np.ndarray:
+    """The numbers of :func:`_pendulum_step`'s pendulum input ``p`` (12,): ``A`` (row-major), ``A^-1`` (row-major),
+    ``B``, ``sigma = c / 2`` and ``omega_d`` of :meth:`~motionlib.planning.swing.Pendulum.system`."""
+    a_mat, b_mat, _, _ = pendulum.system()
+    return np.concatenate([a_mat.ravel(), np.linalg.inv(a_mat).ravel(), b_mat.ravel(),
+                           [pendulum.decay_per_s, pendulum.omega_d]])
+
+
+@functools.cache
+def _pendulum_step() -> ca.Function:
+    """One grid interval of (1) for both axes, exactly: ``(z, v0, v1, d0, d1, h, p) -> z_next``.
 
     ``z`` (4,) is ``(theta_x, r_x, theta_y, r_y)``, ``r = theta' + v_h / L``; the interval runs at path
     speeds ``v0 -> v1`` (constant path acceleration) for ``h`` (s), ``d0``, ``d1`` (2,) the
     tip's horizontal velocity per unit path speed at its ends, and the input ``w = d v`` is taken linear in
-    time over the interval (the first-order hold of :func:`~motionlib.planning.swing.swing_response`). With
-    ``Phi = e^(A h) = e^(-sigma h) (cos(omega_d h) I + sin(omega_d h) / omega_d (A + sigma I))``
+    time over the interval (the first-order hold of :func:`~motionlib.planning.swing.swing_response`); ``p``
+    (12,) is the pendulum (:func:`_pendulum_values`), an input so that one problem serves every rod length.
+    With ``Phi = e^(A h) = e^(-sigma h) (cos(omega_d h) I + sin(omega_d h) / omega_d (A + sigma I))``
     (``sigma = c / 2``)::
 
         z_next = Phi z + A^-1 (Phi - I) B w0 + (A^-2 (Phi - I) - A^-1 h) B (w1 - w0) / h
     """
-    a_mat, b_mat, _, _ = pendulum.system()
-    sigma, omega = pendulum.decay_per_s, pendulum.omega_d
-    args = [ca.SX.sym(name, size) for name, size in (("z", 4), ("v0", 1), ("v1", 1), ("d0", 2), ("d1", 2), ("h", 1))]
-    z, v0, v1, d0, d1, h = args
-    eye = ca.DM.eye(2)
-    phi = ca.exp(-sigma * h) * (ca.cos(omega * h) * eye + ca.sin(omega * h) / omega * ca.DM(a_mat + sigma * np.eye(2)))
-    a_inv = ca.DM(np.linalg.inv(a_mat))
-    b = ca.DM(b_mat)
+    args = [ca.SX.sym(name, size)
+            for name, size in (("z", 4), ("v0", 1), ("v1", 1), ("d0", 2), ("d1", 2), ("h", 1), ("p", 12))]
+    z, v0, v1, d0, d1, h, p = args
+    a_mat, a_inv, b = ca.reshape(p[0:4], 2, 2).T, ca.reshape(p[4:8], 2, 2).T, p[8:10]
+    sigma, omega = p[10], p[11]
+    eye = ca.SX.eye(2)
+    phi = ca.exp(-sigma * h) * (ca.cos(omega * h) * eye + ca.sin(omega * h) / omega * (a_mat + sigma * eye))
     gamma0 = ca.mtimes([a_inv, phi - eye, b])
     gamma1 = ca.mtimes(ca.mtimes([a_inv, a_inv, phi - eye]) - a_inv * h, b)
     out = []
@@ -182,6 +194,90 @@ def _pendulum_step(pendulum: Pendulum) -> ca.Function:
         zi = z[2 * axis : 2 * axis + 2]
         out.append(ca.mtimes(phi, zi) + gamma0 * w0 + gamma1 * (w1 - w0) / h)
     return ca.Function("pendulum_step", args, [ca.vertcat(*out)])
+
+
+@functools.lru_cache(maxsize=4)
+def _swing_accumulator(m: int) -> ca.Function:
+    """:func:`_pendulum_step` over ``m`` intervals from ``z_0``: the states after each (4, m)."""
+    return _pendulum_step().mapaccum(m)
+
+
+@dataclass(frozen=True)
+class _Problem:
+    """The transcription (module docstring) for one grid size and set of constraint rows, its data as parameters.
+
+    ``rows`` gives, per row set of :func:`_linear_rows`, its columns' count and which of its (column, interval
+    end) rows are imposed (those not zero on every interval). Built once per structure (:func:`_problem`): a
+    library build solves thousands of laws on the same 80 points.
+    """
+
+    solver: ca.Function
+    n: int
+    rows: tuple[tuple[int, tuple[bool, ...]], ...]
+    with_peak: bool
+
+    def bounds(self, tolerance_rad: float, peak_rad: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """``lbg``, ``ubg`` of the constraints in the order :func:`_problem` stacks them."""
+        m = self.n - 1
+        lbg, ubg = [np.zeros(m)], [np.zeros(m)]
+        for _, mask in self.rows:
+            k = sum(mask)
+            lbg.append(np.full(k * m, -np.inf))
+            ubg.append(np.zeros(k * m))
+        for _ in ROBUST_LENGTHS:
+            lbg += [np.zeros(4 * m), np.zeros(1)]
+            ubg += [np.zeros(4 * m), np.full(1, (SWING_MARGIN * tolerance_rad) ** 2)]
+        if self.with_peak:
+            lbg.append(np.zeros(m))
+            ubg.append(np.full(m, (peak_rad or 0.0) ** 2))
+        return np.concatenate(lbg), np.concatenate(ubg)
+
+
+@functools.lru_cache(maxsize=8)
+def _problem(n: int, rows: tuple[tuple[int, tuple[bool, ...]], ...], with_peak: bool, max_iter: int) -> _Problem:
+    """The NLP of :func:`settled_law` on ``n`` grid points (module docstring). Its parameters, in order: the
+    intervals ``ds`` (n - 1,), the tip's horizontal velocity per unit path speed ``d`` (2, n) column-major, each
+    rod length's pendulum (:func:`_pendulum_values`, 12 each) and each row set's ``Fa``, ``Fb``, ``Fc`` (n, k)
+    column-major."""
+    m = n - 1  # intervals
+    # unknowns: the path speeds v_1..v_{N-1}, the intervals' durations h_i (a linear objective; h_i (v_i + v_{i+1})
+    # = 2 ds_i ties them) and, per pendulum model, the swing states z_1..z_N after each interval (multiple shooting:
+    # sparse derivatives)
+    w_v = ca.SX.sym("v", n - 2)
+    w_h = ca.SX.sym("h", m)
+    w_z = [ca.SX.sym(f"z{k}", 4, m) for k in range(len(ROBUST_LENGTHS))]
+    ds, d = ca.SX.sym("ds", m), ca.SX.sym("d", 2, n)
+    pend = [ca.SX.sym(f"pendulum{k}", 12) for k in range(len(ROBUST_LENGTHS))]
+    coeffs = [[ca.SX.sym(f"{name}{r}", n, k) for name in ("fa", "fb", "fc")] for r, (k, _) in enumerate(rows)]
+    v = ca.vertcat(0.0, w_v, 0.0)
+    x = v * v
+    u = (x[1:] - x[:-1]) / (2.0 * ds)
+    g = [w_h * (v[:-1] + v[1:]) - 2.0 * ds]
+    for (k, mask), (fa, fb, fc) in zip(rows, coeffs, strict=True):
+        for col in range(k):
+            for side, (lo, hi) in enumerate(((0, n - 1), (1, n))):  # the interval's start and end grid points
+                if mask[2 * col + side]:
+                    g.append(fa[lo:hi, col] * u + fb[lo:hi, col] * x[lo:hi] + fc[lo:hi, col])
+    step = _pendulum_step().map(m)
+    for z, p in zip(w_z, pend, strict=True):
+        z_prev = ca.horzcat(ca.SX.zeros(4, 1), z[:, :-1])  # hanging still at the start
+        g.append(ca.vec(z - step(z_prev, v[:-1].T, v[1:].T, d[:, :-1], d[:, 1:], w_h.T, ca.repmat(p, 1, m))))
+        theta, rate = z[[0, 2], -1], z[[1, 3], -1]  # at rest at the end: theta' = r
+        quad = (rate + p[10] * theta) / p[11]
+        g.append(ca.sumsqr(theta) + ca.sumsqr(quad))
+    if with_peak:  # the nominal swing during the motion, at the grid points
+        nominal = w_z[ROBUST_LENGTHS.index(0.0)]
+        g.append((nominal[0, :] ** 2 + nominal[2, :] ** 2).T)
+
+    # the path's total jerk 1/2 int s_ddd^2 dt: u jumps by du between intervals whose middles lie tau apart
+    du, tau = u[1:] - u[:-1], 0.5 * (w_h[:-1] + w_h[1:])
+    jerk = 0.5 * ca.sum1(du * du / tau)
+    params = ca.vertcat(ds, ca.vec(d), *pend, *(ca.vec(c) for cs in coeffs for c in cs))
+    nlp = {"x": ca.vertcat(w_v, w_h, *(ca.vec(z) for z in w_z)), "f": ca.sum1(w_h) + JERK_WEIGHT * jerk,
+           "g": ca.vertcat(*g), "p": params}
+    opts: dict[str, Any] = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                            "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-8}
+    return _Problem(ca.nlpsol("settled_law", "ipopt", nlp, opts), n, rows, with_peak)
 
 
 def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pendulum, tolerance_rad: float,
@@ -219,64 +315,30 @@ def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pen
     ds = np.diff(grid)
     x_max, rows = _linear_rows(limits, path, grid)
     dp = tip_velocity(crane, path(grid), path(grid, 1))[:, :2]  # tip velocity (m/s) per unit path speed
-
-    # unknowns: the path speeds v_1..v_{N-1}, the intervals' durations h_i (a linear objective; h_i (v_i + v_{i+1})
-    # = 2 ds_i ties them) and, per pendulum model, the swing states z_1..z_N after each interval (multiple shooting:
-    # sparse derivatives)
-    m = n - 1  # intervals
-    models = [replace(pendulum, length_m=pendulum.length_m * (1.0 + dl)) for dl in ROBUST_LENGTHS]
-    w_v = ca.SX.sym("v", n - 2)
-    w_h = ca.SX.sym("h", m)
-    w_z = [ca.SX.sym(f"z{k}", 4, m) for k in range(len(models))]
-    v = ca.vertcat(0.0, w_v, 0.0)
-    x = v * v
-    u = (x[1:] - x[:-1]) / ca.DM(2.0 * ds)
-    g = [w_h * (v[:-1] + v[1:]) - ca.DM(2.0 * ds)]
-    lbg, ubg = [np.zeros(m)], [np.zeros(m)]
-    for fa, fb, fc in rows:
-        for col in range(fa.shape[1]):
-            for lo, hi in ((0, n - 1), (1, n)):  # the interval's start and end grid points
-                if np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0):
-                    g.append(ca.DM(fa[lo:hi, col]) * u + ca.DM(fb[lo:hi, col]) * x[lo:hi] + ca.DM(fc[lo:hi, col]))
-                    lbg.append(np.full(m, -np.inf))
-                    ubg.append(np.zeros(m))
-    d = ca.DM(dp.T)  # (2, n)
+    m = n - 1
+    pendulums = [_pendulum_values(replace(pendulum, length_m=pendulum.length_m * (1.0 + dl))) for dl in ROBUST_LENGTHS]
+    imposed = tuple(
+        (fa.shape[1], tuple(bool(np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0))
+                            for col in range(fa.shape[1]) for lo, hi in ((0, n - 1), (1, n))))
+        for fa, fb, _ in rows
+    )
+    problem = _problem(n, imposed, peak_rad is not None, int(max_iter))
+    params = np.concatenate([ds, dp.T.ravel(order="F"), *pendulums,
+                             *(c.ravel(order="F") for row in rows for c in row)])
     v_hi = np.sqrt(np.minimum(x_max[1:-1], 1e12))
-    # the start: TOPPRA's profile slowed by INITIAL_STRETCH (inside the limits) and the swing it gives
-    v0 = np.concatenate([[0.0], np.clip(sd[1:-1] / INITIAL_STRETCH, MIN_SPEED, v_hi), [0.0]])
+    # the start: TOPPRA's law shaped by ZVD (at the grid points, within the speed bounds) and the swing it gives
+    v_zvd = law.shaped(zvd_impulses(pendulum)).speeds_at(grid)
+    v0 = np.concatenate([[0.0], np.clip(v_zvd[1:-1], MIN_SPEED, v_hi), [0.0]])
     h0 = 2.0 * ds / (v0[:-1] + v0[1:])
-    z0 = []
-    for model, z in zip(models, w_z, strict=True):
-        step = _pendulum_step(model)
-        z_prev = ca.horzcat(ca.DM.zeros(4, 1), z[:, :-1])  # hanging still at the start
-        g.append(ca.vec(z - step.map(m)(z_prev, v[:-1].T, v[1:].T, d[:, :-1], d[:, 1:], w_h.T)))
-        lbg.append(np.zeros(4 * m))
-        ubg.append(np.zeros(4 * m))
-        theta, rate = z[[0, 2], -1], z[[1, 3], -1]  # at rest at the end: theta' = r
-        quad = (rate + model.decay_per_s * theta) / model.omega_d
-        g.append(ca.sumsqr(theta) + ca.sumsqr(quad))
-        lbg.append(np.zeros(1))
-        ubg.append(np.full(1, (SWING_MARGIN * tolerance_rad) ** 2))
-        z0.append(np.asarray(step.mapaccum(m)(np.zeros(4), v0[:-1], v0[1:], dp[:-1].T, dp[1:].T, h0)).ravel(order="F"))
-    if peak_rad is not None:  # the nominal swing during the motion, at the grid points
-        nominal = w_z[ROBUST_LENGTHS.index(0.0)]
-        g.append((nominal[0, :] ** 2 + nominal[2, :] ** 2).T)
-        lbg.append(np.zeros(m))
-        ubg.append(np.full(m, peak_rad**2))
-
-    # the path's total jerk 1/2 int s_ddd^2 dt: u jumps by du between intervals whose middles lie tau apart
-    du, tau = u[1:] - u[:-1], 0.5 * (w_h[:-1] + w_h[1:])
-    jerk = 0.5 * ca.sum1(du * du / tau)
-    nlp = {"x": ca.vertcat(w_v, w_h, *(ca.vec(z) for z in w_z)), "f": ca.sum1(w_h) + JERK_WEIGHT * jerk,
-           "g": ca.vertcat(*g)}
-    opts: dict[str, Any] = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                            "ipopt.max_iter": int(max_iter), "ipopt.tol": 1e-8}
-    solver = ca.nlpsol("settled_law", "ipopt", nlp, opts)
-    n_z = 4 * m * len(models)
-    res = solver(x0=np.concatenate([v0[1:-1], h0, *z0]),
+    accumulate = _swing_accumulator(m)
+    z0 = [np.asarray(accumulate(np.zeros(4), v0[:-1], v0[1:], dp[:-1].T, dp[1:].T, h0, np.tile(p[:, None], m)))
+          .ravel(order="F") for p in pendulums]
+    n_z = 4 * m * len(ROBUST_LENGTHS)
+    lbg, ubg = problem.bounds(tolerance_rad, peak_rad)
+    solver = problem.solver
+    res = solver(x0=np.concatenate([v0[1:-1], h0, *z0]), p=params,
                  lbx=np.concatenate([np.full(n - 2, MIN_SPEED), np.zeros(m), np.full(n_z, -np.inf)]),
-                 ubx=np.concatenate([v_hi, np.full(m, np.inf), np.full(n_z, np.inf)]),
-                 lbg=np.concatenate(lbg), ubg=np.concatenate(ubg))
+                 ubx=np.concatenate([v_hi, np.full(m, np.inf), np.full(n_z, np.inf)]), lbg=lbg, ubg=ubg)
     stats = solver.stats()
     diagnostics: dict[str, Any] = {
         "ipopt_status": stats.get("return_status", "unknown"),

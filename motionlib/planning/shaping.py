@@ -89,15 +89,25 @@ class Shaper:
         return shaped_duration_s(duration_s, self.impulses, self.box_s, self.stretch) - duration_s
 
 
+def _zero_vibration_k(pendulum: Pendulum) -> float:
+    """``K = exp(-zeta pi / sqrt(1 - zeta^2))``, the ratio of successive swing peaks (Singer & Seering 1990)."""
+    zeta = pendulum.damping_ratio
+    return math.exp(-zeta * math.pi / math.sqrt(1.0 - zeta * zeta))
+
+
+def zvd_impulses(pendulum: Pendulum) -> tuple[tuple[float, float], ...]:
+    """The ZVD shaper's impulses ``(1, 2K, K^2) / (1 + K)^2`` at ``0, T_d / 2, T_d`` (module docstring)."""
+    k, half = _zero_vibration_k(pendulum), 0.5 * pendulum.period_s
+    n2 = (1.0 + k) ** 2
+    return (0.0, 1.0 / n2), (half, 2.0 * k / n2), (2.0 * half, k * k / n2)
+
+
 def shapers(pendulum: Pendulum, jerk_box_s: float, duration_s: float) -> list[Shaper]:
     """The candidates (module docstring) for a motion of ``duration_s``, shortest added time first."""
     if not jerk_box_s > 0.0:
         raise InputError(f"jerk_box_s: expected a box length > 0 s, got {jerk_box_s}")
-    zeta = pendulum.damping_ratio
-    k = math.exp(-zeta * math.pi / math.sqrt(1.0 - zeta * zeta))
-    half = 0.5 * pendulum.period_s
-    n2 = (1.0 + k) ** 2
-    zvd = ((0.0, 1.0 / n2), (half, 2.0 * k / n2), (2.0 * half, k * k / n2))
+    k, half = _zero_vibration_k(pendulum), 0.5 * pendulum.period_s
+    zvd = zvd_impulses(pendulum)
     out = [
         Shaper("box", ((0.0, 1.0),), jerk_box_s),
         Shaper("zv", ((0.0, 1.0 / (1.0 + k)), (half, k / (1.0 + k))), jerk_box_s),

@@ -44,6 +44,10 @@ def shaped_duration_s(
     return stretch * duration_s + box_s + max(d for d, _ in impulses)
 
 
+#: Times :meth:`TimeLaw.speeds_at` samples the law at.
+SPEED_SAMPLES = 4000
+
+
 @dataclass(frozen=True, eq=False)
 class TimeLaw:
     """``s(t)`` along a joint path, with the joint samples it gives.
@@ -142,6 +146,14 @@ class TimeLaw:
             for delay, w in self.impulses:
                 out += w * k ** (-order) * f((t - delay) / k)
         return out
+
+    def speeds_at(self, s: np.ndarray, samples: int = SPEED_SAMPLES) -> np.ndarray:
+        """Path speed ``s_dot`` (N,) where the law passes the path parameters ``s`` (N,), from ``samples`` evenly
+        spaced times over its duration (linear interpolation of ``s_dot`` against ``s``)."""
+        t = np.linspace(0.0, self.duration_s, samples)
+        s_t, sd_t = self.evaluate(t, 0), self.evaluate(t, 1)
+        s_unique, first = np.unique(s_t, return_index=True)  # s is non-decreasing: at rest it repeats
+        return np.interp(s, s_unique, sd_t[first])
 
     def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Joint positions, velocities and accelerations (N, dof) at times ``t`` (N,) (s), on the path."""

@@ -17,8 +17,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from ..checks import check_params, param
 from ..control.control_types import Authority
 from ..control.controller import SharedController
@@ -213,7 +211,6 @@ def run_closed_loop(
         diag["rotator_rad"] = sim.rotator_q  # the grapple rotator's final angle
     if sim.params.contact is not None:
         diag["peak_contact_force_n"] = sim.peak_contact_force_n  # the ground's largest push on the grapple
-    if feedback:  # the largest grip force on either stick
-        fb = log.arrays()["feedback_n"]
-        diag["peak_feedback_n"] = float(np.max(np.hypot(fb[:, 0::2], fb[:, 1::2]), initial=0.0))
+    if feedback:
+        diag["peak_feedback_n"] = log.peak_feedback_n()
     return LoopResult(log, settled, float(cycle), wall, steps, dt, diag)

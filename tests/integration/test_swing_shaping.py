@@ -191,3 +191,53 @@ def test_settled_law_is_solved_again_beyond_the_shapers_restretch():
     verifier = Verifier(crane, scene, limits_for(crane), True, 0.01)
     report = verifier.verify(tr.t, tr.q, tr.qd, tr.qdd, swing_tolerance_rad=TOL)
     assert report.ok, report.problems
+
+
+def test_settled_law_is_refined_when_its_limit_excess_is_beyond_a_restretch():
+    """A hard case kept from ``benchmarks/plan.py --random 50 --seed 0`` (forwarder random#16, empty, a 16 s
+    slew round the crane): on the thinned grid the settled law exceeds the boom's acceleration limit between its
+    points by more than ``SETTLED_MAX_RESTRETCH``, so it is solved on ``SETTLED_REFINE`` times the points (then
+    under scaled limits) and arrives still; a separate verifier passes the limits, the collisions and the 0.03 rad
+    residual swing. (Planner 8 kept a uniform stretch that ended swinging 0.044 rad.)"""
+    from motionlib.planning.planner import SETTLED_REFINE
+    from motionlib.planning.settled_law import MAX_GRID
+
+    crane, scene = Crane.load("forwarder"), Scene.load(OBSTACLES / "forwarder-site.yaml")
+    start = [1.8957082618813028, 0.2282188303155191, -0.4741565152349838, 0.5198936692414048]
+    goal = [-5.0410033321360705, -5.783252755318598, 8.353811439076583]
+    res = Planner(crane, scene, PlanOptions(loaded=False)).plan(start, goal).raise_for_status()
+    swing = res.stages["swing"].details
+    assert swing["shaper"] == "settled" and swing["residual_rad"] <= TOL
+    assert f"settled (limits x 1.000, {MAX_GRID} points)" in swing["rejected"]
+    assert swing["settled_law"]["n_grid"] == SETTLED_REFINE * MAX_GRID
+    tr = res.trajectory
+    verifier = Verifier(crane, scene, limits_for(crane), False, 0.01)
+    report = verifier.verify(tr.t, tr.q, tr.qd, tr.qdd, swing_tolerance_rad=TOL)
+    assert report.ok, report.problems
+
+
+def test_a_path_along_a_joint_limit_is_planned_on_its_own_configurations():
+    """A hard case kept from ``benchmarks/plan.py --random 50 --seed 0`` (forwarder random#25-loaded, a log lifted
+    to 8.5 m behind the crane): the joint-space path runs along the boom's upper limit, where the closed-form IK
+    with any smooth telescope profile (optimised, fitted, linear) crosses it, and the tip-space path's profile is
+    infeasible. The joint path's own configurations are the last fallback: the plan succeeds from a start on the
+    IK's branch, begins at the start, and a separate verifier passes its limits and collisions. (Planner 8
+    failed the query.)"""
+    from motionlib.planning.planner import JOINT_PROFILE
+
+    crane, scene = Crane.load("forwarder"), Scene.load(OBSTACLES / "forwarder-site.yaml")
+    start = np.array([-2.0711519958383304, 0.6692518525132909, -0.023788410860572817, 1.5572759514029846])
+    goal = [-7.389702803155599, 0.7197599247064345, 8.538822987679026]
+    q_ik, ok = crane.ik_batch(crane.fk(start)[None, :], start[3:4], q1_ref=float(start[0]))
+    assert ok[0] and np.allclose(q_ik[0], start, atol=1e-9)  # on the IK's branch: not the off-branch case
+    res = Planner(crane, scene, PlanOptions(loaded=True)).plan(start, goal).raise_for_status()
+    chosen = res.stages["candidates"].details
+    assert chosen["profile"] == JOINT_PROFILE
+    rejected = res.stages["redundancy"].details[chosen["source"]]["rejected"]
+    assert {"fitted", "optimised"} <= set(rejected)
+    tr = res.trajectory
+    np.testing.assert_array_equal(tr.q[0], start)
+    verifier = Verifier(crane, scene, limits_for(crane), True, 0.01)
+    report = verifier.verify(tr.t, tr.q, tr.qd, tr.qdd, start_q=start, goal_p=np.asarray(goal))
+    assert report.ok, report.problems
+    assert crane.within_limits(tr.q).all()

@@ -13,7 +13,13 @@ import pytest
 
 from motionlib.model.kinematics import Crane
 from motionlib.model.limits import limits_for
-from motionlib.planning.settled_law import SWING_MARGIN, SettledLawStatus, _pendulum_step, settled_law
+from motionlib.planning.settled_law import (
+    SWING_MARGIN,
+    SettledLawStatus,
+    _pendulum_step,
+    _pendulum_values,
+    settled_law,
+)
 from motionlib.planning.swing import Pendulum, predict_swing
 from motionlib.planning.time_law import TimeLaw
 from motionlib.planning.timing import sample_times, time_scale
@@ -95,7 +101,7 @@ def test_pendulum_interval_is_the_exact_solution(h, v0, v1):
     a_mat, b_mat, _, _ = pendulum.system()
     d0, d1 = np.array([0.8, -0.3]), np.array([0.6, 0.2])
     z0 = np.array([0.05, -0.02, 0.01, 0.03])
-    out = np.asarray(_pendulum_step(pendulum)(z0, v0, v1, d0, d1, h)).ravel()
+    out = np.asarray(_pendulum_step()(z0, v0, v1, d0, d1, h, _pendulum_values(pendulum))).ravel()
     tau = np.linspace(0.0, h, 2001)
     for axis in range(2):
         w0, w1 = d0[axis] * v0, d1[axis] * v1

@@ -108,6 +108,28 @@ def test_base_law_reproduces_toppra_constant_acceleration_samples():
         np.testing.assert_allclose(got, ref(t, order), atol=1e-9)
 
 
+def test_speeds_at_is_the_constant_acceleration_closed_form_and_the_shaped_law_at_its_crossing_time():
+    """``TimeLaw.speeds_at``: on the base law, ``s_dot(s) = sqrt(s_dot_i^2 + 2 u_i (s - s_i))`` between grid points
+    (constant path acceleration ``u_i``); on a ZVD-shaped law, ``s_dot`` at the time where ``s(t) = s`` found by
+    scipy's brentq."""
+    from scipy.optimize import brentq
+
+    from motionlib.planning.shaping import zvd_impulses
+
+    speeds = [0.4, 0.9, 1.2, 0.7, 0.3]
+    law = _straight_law(speeds)
+    grid = np.linspace(0.0, 2.0, 7)
+    sd = np.array([0.0, *speeds, 0.0])
+    u = 0.5 * np.diff(sd**2) / np.diff(grid)
+    s = np.linspace(0.0, 2.0, 61)[1:-1]
+    i = np.minimum(np.searchsorted(grid, s, side="right") - 1, len(u) - 1)
+    np.testing.assert_allclose(law.speeds_at(s), np.sqrt(sd[i] ** 2 + 2.0 * u[i] * (s - grid[i])), atol=2e-3)
+    shaped = law.shaped(zvd_impulses(Pendulum(0.8, 0.4)))
+    crossing = [brentq(lambda t, x=x: float(shaped.evaluate(np.array([t]), 0)[0]) - x, 0.0, shaped.duration_s)
+                for x in s]
+    np.testing.assert_allclose(shaped.speeds_at(s), shaped.evaluate(np.array(crossing), 1), atol=2e-3)
+
+
 @settings(max_examples=25, deadline=None)
 @given(
     speeds=st.lists(st.floats(0.05, 2.0), min_size=2, max_size=8),
