@@ -11,7 +11,9 @@ interpolated telescope on the tip-space path). ``--compare-old`` also plans ever
 query with the tip-space path alone (the pipeline before joint-space candidates,
 ``PlanOptions(joint_candidates=False)``) in the same run and prints the duration
 and compute-time ratios new / old. Every plan also reports the grapple's predicted residual swing
-(rad), its time to settled (s), its total jerk (000 eq. 6, m^2/s^5) and the swing shaper chosen;
+(rad), its time to settled (s), its total jerk (000 eq. 6, m^2/s^5) and the swing shaper chosen; the summary
+also sets the time to settled against the swing-blind joint-space baseline's own (its predicted residual swing's
+passive decay added to its duration), the comparison on the figure of merit;
 ``--no-swing-shaping`` plans the time-optimal motions (``PlanOptions(swing_shaping=False)``), and the
 summary gives the median ratio of the duration to the unshaped time-optimal one (stage ``swing``).
 
@@ -204,6 +206,7 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
                 shaper=info.swing_shaper,
                 unshaped_swing_rad=res.stages["swing"].details["unshaped_residual_rad"],
                 unshaped_settled_s=res.stages["swing"].details["unshaped_time_to_settled_s"],
+                js_settled_s=res.stages["jointspace"].details.get("baseline_time_to_settled_s", float("nan")),
                 shaping_ratio=d / (d - res.stages["swing"].details.get("added_s", 0.0)),
             )
             if row["lb_ratio"] > 2.0:
@@ -235,11 +238,11 @@ def main() -> None:
     rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_fn, args.seed, args.compare_old, shaping)
     rows += run("obstacles/log-loading.yaml", "lab", log_loading_fn, args.seed, args.compare_old, shaping)
 
-    cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s")
+    cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s", "swing_s")
     ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
     head = (
         f"{'scene':15} {'query':20} {'ok':3} {'path':>6} {'joint':>6} {'topt':>6} {'redund':>6} {'timing':>6} "
-        f"{'verify':>6} "
+        f"{'verify':>6} {'shape':>6} "
         f"{'total':>6} {'old':>6} {'T (s)':>6} {'/js':>6} {'/lb':>6} {'/old':>6} {'/const':>6} {'/lin':>6} "
         f"{'/slew':>6} {'swing':>6} {'settle':>6} {'jerk':>7} {'shaper':14} source"
     )
@@ -258,8 +261,9 @@ def main() -> None:
             tail = f"FAILED: {r['reason']}"
         ok = "yes" if r["ok"] else "NO"
         print(f"{r['scene']:15} {r['query']:20} {ok:3} {stage} {times} {tail}")
-    print("(times in ms; old: compute of the tip-space-only pipeline; /js: duration over the joint-space baseline;")
-    print(" /lb: over the pump-aware lower bound; /old: over the tip-space-only pipeline's duration;")
+    print("(times in ms; shape: the swing stage; old: compute of the tip-space-only pipeline;")
+    print(" /js: duration over the joint-space baseline; /lb: over the pump-aware lower bound;")
+    print(" /old: over the tip-space-only pipeline's duration;")
     print(" /const, /lin: over the constant- and linear-telescope baselines on the tip-space path (nan: infeasible);")
     print(" /slew: over the slew-only bound of the chosen path; swing: predicted residual swing (rad); settle: time to")
     print(" settled (s, the duration plus the swing's passive decay to 0.03 rad); jerk: total jerk (m^2/s^5, eq. 6))")
@@ -287,12 +291,17 @@ def main() -> None:
                 for k in ("shaping_ratio", "swing_rad", "settled_s", "jerk", "unshaped_swing_rad", "unshaped_settled_s")
             }
             settle_ratio = statistics.median(r["settled_s"] / r["unshaped_settled_s"] for r in ok)
+            with_js = [r for r in ok if np.isfinite(r["js_settled_s"])]
+            js = [r["settled_s"] / r["js_settled_s"] for r in with_js]
+            js_med = statistics.median(r["js_settled_s"] for r in with_js) if with_js else np.nan
             print(
                 f"  {scene} swing: median T/T_time-optimal {med['shaping_ratio']:.3f} (max "
                 f"{max(r['shaping_ratio'] for r in ok):.3f}); residual swing median {med['swing_rad']:.3f} rad (max "
                 f"{max(r['swing_rad'] for r in ok):.3f}; time-optimal {med['unshaped_swing_rad']:.3f}); time to "
                 f"settled median {med['settled_s']:.2f} s (time-optimal {med['unshaped_settled_s']:.2f} s, median "
-                f"ratio {settle_ratio:.3f}); total jerk median {med['jerk']:.1f} m^2/s^5; shapers "
+                f"ratio {settle_ratio:.3f}; joint-space baseline {js_med:.2f} s, mean ratio "
+                f"{np.mean(js) if js else np.nan:.3f}, n={len(js)}); total jerk median {med['jerk']:.1f} m^2/s^5; "
+                f"shapers "
                 f"{dict(sorted(collections.Counter(r['shaper'].split('*')[0] for r in ok).items()))}"
             )
     for label, prefix, suffix in (

@@ -28,7 +28,7 @@ import numpy as np
 from ..model.kinematics import Crane
 from ..model.limits import Limit
 from .path import solve_ompl
-from .timing import time_scale
+from .timing import TimingResult, time_scale
 from .verification import Verifier, time_and_verify
 
 
@@ -216,11 +216,14 @@ class JointSpaceBaseline:
         limits, NaN when timing failed.
     verified : dict of str to bool
         Per joint path that was verified (fastest first, up to the first that passes): the outcome.
+    timing : TimingResult or None
+        The fastest verified timing (its samples), None when none verified.
     """
 
     duration_s: float
     durations_s: dict[str, float]
     verified: dict[str, bool]
+    timing: TimingResult | None = None
 
     def fastest(self, n: int) -> list[str]:
         """Names of the ``n`` joint paths with the shortest first-attempt durations (timed ones only)."""
@@ -247,12 +250,12 @@ def jointspace_baseline(
     durations = {name: r.duration_s for name, r in first.items()}
     timed = [name for name, r in first.items() if r.ok]
     verified: dict[str, bool] = {}
-    best = math.inf
+    best: TimingResult | None = None
     for name in sorted(timed, key=lambda k: durations[k]):
-        if best <= durations[name]:  # re-timing only slows a path down: no slower one can win
+        if best is not None and best.duration_s <= durations[name]:  # re-timing only slows a path down
             break
         timing, report, _ = time_and_verify(*prepared[name], attempts, verifier, dt, first=first[name])
         verified[name] = bool(timing.ok and report is not None and report.ok)
-        if verified[name]:
-            best = min(best, timing.duration_s)
-    return JointSpaceBaseline(best if np.isfinite(best) else math.nan, durations, verified)
+        if verified[name] and (best is None or timing.duration_s < best.duration_s):
+            best = timing
+    return JointSpaceBaseline(math.nan if best is None else best.duration_s, durations, verified, best)

@@ -587,11 +587,14 @@ class Planner:
         t0 = time.perf_counter()
         joint_paths, joint_details = self._joint_paths(start_q, goal_p) if o.joint_candidates else ({}, {})
         baseline_js = jointspace_baseline(crane, joint_paths, self.timing_attempts, self.verifier, o.dt_s)
-        stages["jointspace"] = StageReport(
-            "ok" if joint_paths else "failed",
-            time.perf_counter() - t0,
-            {**joint_details, "baseline_durations_s": baseline_js.durations_s, "verified": baseline_js.verified},
-        )
+        js_details = {**joint_details, "baseline_durations_s": baseline_js.durations_s,
+                      "verified": baseline_js.verified}
+        if baseline_js.timing is not None:  # the swing-blind baseline's own time to settled (the figure of merit)
+            js = baseline_js.timing
+            js_swing = predict_swing(crane, js.t, js.q, js.qd, self.pendulum, o.swing_tolerance_rad)
+            js_details.update(baseline_residual_swing_rad=js_swing.residual_rad,
+                              baseline_time_to_settled_s=js_swing.time_to_settled_s)
+        stages["jointspace"] = StageReport("ok" if joint_paths else "failed", time.perf_counter() - t0, js_details)
         t0 = time.perf_counter()
         trajopts: dict[str, dict[str, Any]] = {}
         t_trajopt = 0.0

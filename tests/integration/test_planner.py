@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from pathlib import Path
 
 import h5py
@@ -22,6 +23,7 @@ from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
 from motionlib.planning.redundancy import RedundancyOptions
+from motionlib.planning.swing import Pendulum
 from motionlib.planning.trajectory import load_plan
 from motionlib.planning.trajopt import optimise_trajectory
 
@@ -115,13 +117,21 @@ def test_never_slower_than_any_verified_candidate(results):
         assert outcomes[chosen]["verified"] and outcomes[chosen]["duration_s"] == duration
 
 
-def test_lower_bound_and_jointspace_baseline_reported(results):
-    for start, goal, _, res in results:
+def test_lower_bound_and_jointspace_baseline_reported(results, lab):
+    """Beside the duration, the swing-blind joint-space baseline's time to settled: its duration plus the passive
+    decay ``ln(A / tol) / (c / 2)`` of its predicted residual swing ``A`` (Pendulum.settle_time_s' closed form)."""
+    for start, goal, loaded, res in results:
         info = res.trajectory.info
         assert 0.0 < info.lower_bound_s <= info.duration_s, (start, goal)
         js = res.baselines["jointspace"]
         assert js is None or info.lower_bound_s <= js, (start, goal)
         assert info.path_source in res.stages["candidates"].details["sources"]
+        if js is not None:
+            details = res.stages["jointspace"].details
+            residual, tol = details["baseline_residual_swing_rad"], info.swing_tolerance_rad
+            sigma = Pendulum.from_crane(lab.model, loaded).decay_per_s
+            decay = 0.0 if residual <= tol else math.log(residual / tol) / sigma
+            assert details["baseline_time_to_settled_s"] == pytest.approx(js + decay, rel=1e-12)
 
 
 @pytest.mark.slow
