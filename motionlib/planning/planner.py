@@ -998,7 +998,7 @@ class Planner:
         return bool(
             self.crane.within_limits(q)
             and not self._arm_checker.in_collision(q, loaded)
-            and not self._path_checker.tip_in_collision(self.crane.fk(q), loaded)
+            and not self._path_checker.configuration_tip_in_collision(q, loaded)
         )
 
     def _configs_valid(self, qs: np.ndarray) -> bool:

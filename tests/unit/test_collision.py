@@ -369,7 +369,8 @@ def test_batch_and_distance_agree_with_single_checks(shipped_checkers, sample_q,
 @pytest.mark.parametrize("loaded", [False, True])
 def test_batched_tip_checks_agree_with_single_checks(shipped_checkers, sample_q, scene_name, loaded):
     """tips_in_collision (bounding-box screen + fcl) == tip_in_collision, at the tips of sampled configurations,
-    with the log along the tips' headings and at random yaws (a grapple rotator)."""
+    with the log along the tips' headings and at random yaws (a grapple rotator); configuration_tip_in_collision
+    of the configurations themselves gives the same answers (its own scalar kinematics against Crane.fk)."""
     checker = shipped_checkers[scene_name]
     tips = checker.crane.fk_batch(sample_q(checker.crane, 1500, seed=5))
     single = np.array([checker.tip_in_collision(p, loaded) for p in tips])
@@ -380,6 +381,10 @@ def test_batched_tip_checks_agree_with_single_checks(shipped_checkers, sample_q,
     np.testing.assert_array_equal(checker.tips_in_collision(tips, loaded, yaw), turned)
     if loaded:  # the turned log changes some answers
         assert (turned != single).any()
+
+    configs = sample_q(checker.crane, 1500, seed=5)
+    by_configuration = np.array([checker.configuration_tip_in_collision(q, loaded) for q in configs])
+    np.testing.assert_array_equal(by_configuration, single)  # the scalar tip of each configuration: Crane.fk's
 
 
 def _brute_force_min_distance(crane: Crane, scene: Scene, parts) -> float:
