@@ -73,6 +73,10 @@ class EscapeChecker:
         """:meth:`CollisionChecker.tip_in_collision` of the checker that applies at ``p_tip`` (3,)."""
         return self._for_tip(p_tip).tip_in_collision(p_tip, loaded, yaw)
 
+    def configuration_tip_in_collision(self, q: Any, loaded: bool = False) -> bool:
+        """:meth:`CollisionChecker.configuration_tip_in_collision` of the checker that applies at ``q``'s tip."""
+        return self._for_q(q).configuration_tip_in_collision(q, loaded)
+
     def in_collision(self, q: Any, loaded: bool = False) -> bool:
         """:meth:`CollisionChecker.in_collision` of the checker that applies at ``q``'s tip."""
         return self._for_q(q).in_collision(q, loaded)

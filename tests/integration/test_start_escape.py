@@ -48,6 +48,8 @@ def test_batched_answers_are_the_single_ones_on_both_sides_of_the_ball(forwarder
         single_tip = np.array([escape.tip_in_collision(p, True) for p in tips])
         assert np.array_equal(escape.tips_in_collision(tips, True), single_tip)
         assert np.array_equal(single_tip[~near], margin.tips_in_collision(tips[~near], True))
+        by_configuration = np.array([escape.configuration_tip_in_collision(q, True) for q in qs])
+        assert np.array_equal(by_configuration, single_tip)
 
 
 @pytest.mark.slow
