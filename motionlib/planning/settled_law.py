@@ -206,24 +206,24 @@ def _swing_accumulator(m: int) -> ca.Function:
 class _Problem:
     """The transcription (module docstring) for one grid size and set of constraint rows, its data as parameters.
 
-    ``rows`` gives, per row set of :func:`_linear_rows`, its columns' count and which of its (column, interval
-    end) rows are imposed (those not zero on every interval). Built once per structure (:func:`_problem`): a
+    ``rows`` gives, per row set of :func:`_linear_rows`, which of its (column, interval end) rows are imposed
+    (those not zero on every interval): two flags per column. Built once per structure (:func:`_problem`): a
     library build solves thousands of laws on the same 80 points.
     """
 
     solver: ca.Function
     n: int
-    rows: tuple[tuple[int, tuple[bool, ...]], ...]
+    rows: tuple[tuple[bool, ...], ...]
     with_peak: bool
 
     def bounds(self, tolerance_rad: float, peak_rad: float | None) -> tuple[np.ndarray, np.ndarray]:
         """``lbg``, ``ubg`` of the constraints in the order :func:`_problem` stacks them."""
         m = self.n - 1
         lbg, ubg = [np.zeros(m)], [np.zeros(m)]
-        for _, mask in self.rows:
-            k = sum(mask)
-            lbg.append(np.full(k * m, -np.inf))
-            ubg.append(np.zeros(k * m))
+        for mask in self.rows:
+            imposed = sum(mask)
+            lbg.append(np.full(imposed * m, -np.inf))
+            ubg.append(np.zeros(imposed * m))
         for _ in ROBUST_LENGTHS:
             lbg += [np.zeros(4 * m), np.zeros(1)]
             ubg += [np.zeros(4 * m), np.full(1, (SWING_MARGIN * tolerance_rad) ** 2)]
@@ -234,7 +234,7 @@ class _Problem:
 
 
 @functools.lru_cache(maxsize=8)
-def _problem(n: int, rows: tuple[tuple[int, tuple[bool, ...]], ...], with_peak: bool, max_iter: int) -> _Problem:
+def _problem(n: int, rows: tuple[tuple[bool, ...], ...], with_peak: bool, max_iter: int) -> _Problem:
     """The NLP of :func:`settled_law` on ``n`` grid points (module docstring). Its parameters, in order: the
     intervals ``ds`` (n - 1,), the tip's horizontal velocity per unit path speed ``d`` (2, n) column-major, each
     rod length's pendulum (:func:`_pendulum_values`, 12 each) and each row set's ``Fa``, ``Fb``, ``Fc`` (n, k)
@@ -248,13 +248,14 @@ def _problem(n: int, rows: tuple[tuple[int, tuple[bool, ...]], ...], with_peak: 
     w_z = [ca.SX.sym(f"z{k}", 4, m) for k in range(len(ROBUST_LENGTHS))]
     ds, d = ca.SX.sym("ds", m), ca.SX.sym("d", 2, n)
     pend = [ca.SX.sym(f"pendulum{k}", 12) for k in range(len(ROBUST_LENGTHS))]
-    coeffs = [[ca.SX.sym(f"{name}{r}", n, k) for name in ("fa", "fb", "fc")] for r, (k, _) in enumerate(rows)]
+    coeffs = [[ca.SX.sym(f"{name}{r}", n, len(mask) // 2) for name in ("fa", "fb", "fc")]
+              for r, mask in enumerate(rows)]
     v = ca.vertcat(0.0, w_v, 0.0)
     x = v * v
     u = (x[1:] - x[:-1]) / (2.0 * ds)
     g = [w_h * (v[:-1] + v[1:]) - 2.0 * ds]
-    for (k, mask), (fa, fb, fc) in zip(rows, coeffs, strict=True):
-        for col in range(k):
+    for mask, (fa, fb, fc) in zip(rows, coeffs, strict=True):
+        for col in range(len(mask) // 2):
             for side, (lo, hi) in enumerate(((0, n - 1), (1, n))):  # the interval's start and end grid points
                 if mask[2 * col + side]:
                     g.append(fa[lo:hi, col] * u + fb[lo:hi, col] * x[lo:hi] + fc[lo:hi, col])
@@ -318,8 +319,8 @@ def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pen
     m = n - 1
     pendulums = [_pendulum_values(replace(pendulum, length_m=pendulum.length_m * (1.0 + dl))) for dl in ROBUST_LENGTHS]
     imposed = tuple(
-        (fa.shape[1], tuple(bool(np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0))
-                            for col in range(fa.shape[1]) for lo, hi in ((0, n - 1), (1, n))))
+        tuple(bool(np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0))
+              for col in range(fa.shape[1]) for lo, hi in ((0, n - 1), (1, n)))
         for fa, fb, _ in rows
     )
     problem = _problem(n, imposed, peak_rad is not None, int(max_iter))

@@ -855,12 +855,12 @@ class SimulatedCrane:
             raise InputError(f"crane {self.crane.name!r}: dynamics.{key} is missing (the grapple's timing)")
         if self.params.model == "second_order" and self._inertia is None:
             raise InputError(f"crane {self.crane.name!r}: a grasped log needs joint_inertia (SimParams or the file)")
-        body = HangingBody.of(self._mass, self.length_m, self.held_log)
+        mass, depth, inertia = self.pendulum()
         prm, l0 = self.arrays.prm, self.length_m
-        prm[P_NEXT_MASS] = body.mass_kg
+        prm[P_NEXT_MASS] = mass
         # l / L_eff (HangingBody.equivalent_length_m = I_pivot / (M D)); d / l
-        prm[P_NEXT_SIGMA] = l0 * body.mass_kg * body.depth_m / body.inertia_kg_m2 if body.inertia_kg_m2 > 0.0 else 1.0
-        prm[P_NEXT_KAPPA] = body.depth_m / l0
+        prm[P_NEXT_SIGMA] = l0 * mass * depth / inertia if inertia > 0.0 else 1.0
+        prm[P_NEXT_KAPPA] = depth / l0
         prm[P_SWITCH_T] = self.t + float(delay_s)
 
     @property
