@@ -32,7 +32,7 @@ from __future__ import annotations
 import enum
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -156,6 +156,12 @@ class LoadingCycleOptions:
         ``motionlib execute``: the grapple must be still before it closes or opens
         (``FORWARDER_SCENARIO.grapple_still_rad``). Off, the swing decays on its own (the log-loading
         experiment runs without it, as 000 describes no anti-sway).
+    per_joint_stiffness : bool
+        Each joint its own oil-spring frequency in the plant and the controller (``RunOptions.per_joint_stiffness``),
+        and plans whose jerk box is one period of the slowest joint's mode
+        (:meth:`~motionlib.model.crane_model.CraneModel.slowest_joint_period_s`, the forwarder's slew: 1.25 s)
+        unless the spec's planner sets ``jerk_box_s``. Off by default (every joint 2.5 Hz, 0.4 s box):
+        docs/runtime.md, "Per-joint natural frequencies", gives the cycle measured both ways.
     """
 
     spec: Path = DEFAULT_CYCLE_SPEC
@@ -165,6 +171,7 @@ class LoadingCycleOptions:
     time_limit_s: float = 600.0
     scenario: ScenarioOptions = FORWARDER_SCENARIO
     swing_damping: bool = True
+    per_joint_stiffness: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "spec", Path(self.spec))
@@ -362,8 +369,11 @@ def loading_cycle(
     opts = options or LoadingCycleOptions()
     t0 = time.perf_counter()
     spec = LibrarySpec.load(opts.spec)
+    if opts.per_joint_stiffness and "jerk_box_s" not in spec.planner:
+        spec = replace(spec, planner={**spec.planner, "jerk_box_s": spec.crane.model.slowest_joint_period_s()})
     run_opts = RunOptions(
-        time_limit_s=opts.time_limit_s, swing_damping=opts.swing_damping, scenario=opts.scenario, seed=opts.seed
+        time_limit_s=opts.time_limit_s, swing_damping=opts.swing_damping, scenario=opts.scenario, seed=opts.seed,
+        per_joint_stiffness=opts.per_joint_stiffness,
     )
     scenario = Scenario.from_scene(spec.scene, opts.scenario)
     n_logs = len(scenario.logs)
@@ -375,6 +385,8 @@ def loading_cycle(
         "scene": spec.scene.name,
         "crane": spec.crane.name,
         "logs": logs,
+        "joint_stiffness": "per-joint" if opts.per_joint_stiffness else "shared",
+        "jerk_box_s": spec.plan_options().jerk_box_s,
         "planning_s": time.perf_counter() - t0,
         "planned": {
             m.key: (m.result.trajectory.duration_s if m.result.trajectory is not None else None)

@@ -443,7 +443,9 @@ def markdown(result: Any, an: Analysis, library_note: str, files: list[str], bui
         f"modes {', '.join(modes)}; {cfg.series} series of {per_series} work cycles each; automation "
         f"ends `{cfg.run.scenario.automation_ends}`. {len(result.results)} series, {n_cycles} of {planned} work "
         f"cycles completed. Wall time {result.wall_s:.1f} s on {result.workers} worker processes"
-        + (f" (plus {build_s:.1f} s building the library)" if build_s else "") + f". Library: {library_note}.",
+        + (f" (plus {build_s:.1f} s building the library)" if build_s else "") + f". Library: {library_note}."
+        + (" Plant: each joint its own oil-spring frequency (`--per-joint-stiffness`)."
+           if cfg.run.per_joint_stiffness else ""),
         "",
         "The simulated operators (`motionlib.experiment.panel`) were set once from general reasoning about experts "
         "and novices and not tuned to 000's numbers; the mixer, tracker, controller and crane run with their "

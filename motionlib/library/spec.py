@@ -69,8 +69,8 @@ PLANNER_RANGES: dict[str, Plausible] = {
     "swing_tolerance_rad": Plausible(1e-3, 0.5, 1e-5, 1.5, "rad"),
     # the largest swing during a motion: from a nearly still grapple to the linear pendulum's range
     "swing_peak_rad": Plausible(0.05, 1.0, 1e-3, 1.5, "rad"),
-    # the jerk-limiting box of swing shaping: from a fast valve's opening to a slow operator's
-    "jerk_box_s": Plausible(0.01, 1.0, 1e-3, 10.0, "s"),
+    # the jerk-limiting box of swing shaping: from a fast valve's opening to one period of a 0.5 Hz joint mode
+    "jerk_box_s": Plausible(0.01, 2.0, 1e-3, 10.0, "s"),
 }
 OTHER_FLOAT = Plausible(0.0, 1e3, 0.0, 1e6)
 OTHER_INT = Plausible(1, 10_000, 1, 1_000_000)

@@ -269,6 +269,16 @@ class CraneModel:
             mass.append(self.rotator_inertia)
         return tuple(natural_frequency_rad_s(beta, di, vi, ii) for di, vi, ii in zip(d, vol, mass, strict=True))
 
+    def slowest_joint_period_s(self) -> float:
+        """One period ``2 pi / min(omega_i)`` (s) of the slowest arm joint's oil-spring mode.
+
+        From :meth:`natural_frequencies_rad_s` (Merritt 1967, ch. 5) over q1-q4; ``1 /``
+        :data:`DEFAULT_NATURAL_FREQ_HZ` when the file gives no oil springs (the simulated crane's
+        frequency then). Lab crane 0.885 s (slew 1.13 Hz), forwarder 1.25 s (slew 0.80 Hz).
+        """
+        omega = self.natural_frequencies_rad_s()
+        return 1.0 / DEFAULT_NATURAL_FREQ_HZ if omega is None else 2.0 * math.pi / min(omega)
+
     @property
     def has_rotator(self) -> bool:
         """The crane file declares the grapple rotator q5 (section ``rotator``)."""

@@ -228,6 +228,34 @@ def test_scenario_from_the_lab_scene():
     assert sc.out_target(a1) == pytest.approx(tuple(Scene.load(SCENE).point("pickup-between")))
 
 
+def test_per_joint_stiffness_runs_each_joint_at_its_own_frequency(lab):
+    """RunOptions(per_joint_stiffness=True): the plant rings each joint at the crane file's frequency
+    (sqrt(4 beta d^2 / (V I)) from the YAML numbers), the controller's gain uses them, and the swing damping is the
+    per-joint plant's; the default context keeps 2.5 Hz for every joint."""
+    import yaml
+
+    from motionlib.control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams
+    from motionlib.experiment.series import ExperimentContext, RunOptions
+    from motionlib.sim.plant import SimulatedCrane
+
+    raw = yaml.safe_load((ROOT / "motionlib" / "model" / "cranes" / "lab.yaml").read_text())
+    hyd, inertia = raw["hydraulics"], raw["dynamics"]["joint_inertia"]
+    omega = [math.sqrt(4 * hyd["bulk_modulus"] * hyd["displacement"][j] ** 2 / (hyd["oil_volume"][j] * inertia[j]))
+             for j in ("slew", "boom", "jib", "telescope")]
+    scene = Scene.load(SCENE)
+    q = lab.ik([3.0, 0.0, 1.5], 0.3)
+    per_joint = ExperimentContext.for_scene(lab, scene, None, RunOptions(per_joint_stiffness=True, swing_damping=True))
+    opts = per_joint.execute_options
+    np.testing.assert_allclose(SimulatedCrane(lab, q, opts.sim).omega_rad_s, omega, rtol=1e-12)
+    assert opts.controller.joint_natural_freq_hz is None and opts.controller.swing_damping == PER_JOINT_SWING_DAMPING
+    default = ExperimentContext.for_scene(lab, scene, None, RunOptions(swing_damping=True)).execute_options
+    assert SimulatedCrane(lab, q, default.sim).omega_rad_s == (2 * math.pi * 2.5,) * 4
+    assert default.controller.swing_damping == ControllerParams().swing_damping != PER_JOINT_SWING_DAMPING
+    # the slow slew caps the automation's position gain below the single 2.5 Hz model's
+    assert (SharedController(lab, "M6", opts.controller).position_gain_max(q[None, :])
+            < SharedController(lab, "M6", default.controller).position_gain_max(q[None, :]))
+
+
 def test_panel_interpolates_between_the_presets():
     assert params_for_skill(0.0) == OPERATOR_PRESETS["novice"]
     assert params_for_skill(1.0) == OPERATOR_PRESETS["expert"]

@@ -107,6 +107,8 @@ def test_crane_file_gives_the_documented_frequencies(path):
     np.testing.assert_allclose(sim.omega_rad_s, w, rtol=1e-12)
     np.testing.assert_allclose(sim.joints.w2, w**2, rtol=1e-12)
     np.testing.assert_allclose(sim.joints.zw2, 2 * SimParams().damping_ratio * w, rtol=1e-12)
+    # the per-joint jerk box: one period of the slowest arm joint's mode (the rotator is not an arm joint)
+    assert crane.model.slowest_joint_period_s() == pytest.approx(2 * math.pi / w[:4].min(), rel=1e-12)
 
 
 def test_single_frequency_without_oil_data_or_when_given(tmp_path):
@@ -118,6 +120,7 @@ def test_single_frequency_without_oil_data_or_when_given(tmp_path):
     path.write_text(yaml.safe_dump(raw))
     old = Crane.load(path)
     assert not old.model.has_stiffness and old.model.natural_frequencies_rad_s() is None
+    assert old.model.slowest_joint_period_s() == pytest.approx(1.0 / DEFAULT_NATURAL_FREQ_HZ, rel=1e-12)
     assert SimulatedCrane(old, Q_MID, SimParams(natural_freq_hz=None)).omega_rad_s == (
         2 * math.pi * DEFAULT_NATURAL_FREQ_HZ,) * 4
     lab = Crane.load("lab")
