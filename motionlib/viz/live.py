@@ -117,7 +117,12 @@ class LiveOptions:
             raise InputError(f"segments: expected an integer >= 4, got {self.segments!r}")
         if not isinstance(self.gaze, tuple) or not all(isinstance(f, str | Path) for f in self.gaze):
             raise InputError(f"gaze: expected a tuple of gaze file paths, got {self.gaze!r}")
-        ExecuteOptions(seed=self.seed, time_limit_s=self.time_limit_s)  # checks both
+        _ = self.execute_options  # checks the seed and the time limit
+
+    @property
+    def execute_options(self) -> ExecuteOptions:
+        """The closed loop's options of every motion the view runs."""
+        return ExecuteOptions(seed=self.seed, time_limit_s=self.time_limit_s)
 
 
 class LiveStatus(enum.Enum):
@@ -440,7 +445,7 @@ class LiveServer:
             operator=o.operator,
             target=target,
             start_q=q,
-            options=ExecuteOptions(seed=o.seed, time_limit_s=o.time_limit_s),
+            options=o.execute_options,
             sensors=[pacer],
         )
         assert pacer.sim is not None  # the loop calls its sensors from the first step on
