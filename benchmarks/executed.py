@@ -1,7 +1,7 @@
 """Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
 
 Run: ``python benchmarks/executed.py [--library PATH] [--rows 20] [--baseline] [--no-swing-settle]
-[--no-swing-damping] [--m1]``
+[--no-swing-damping] [--m1] [--per-joint-stiffness]``
 
 The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):
 a motion counts when the grapple has arrived and stopped swinging, which is when
@@ -33,6 +33,12 @@ swing never holds a run up, the tip alone decides): its settle time, ratio and r
 With the default controller's swing damping the grapple has mostly stopped by the time the tip rests,
 so the two agree; ``--no-swing-damping`` (``ControllerParams(swing_damping=0)``, ``motionlib execute
 --no-swing-damping``) runs the controller without it, where the tip rests long before the swing decays.
+
+``--per-joint-stiffness`` runs every row on the plant with each joint's own oil-spring frequency
+(``SimParams(natural_freq_hz=None)``) with the controller for it (``joint_natural_freq_hz=None``, swing damping
+``PER_JOINT_SWING_DAMPING``), each row's path re-timed (:meth:`Planner.plan_along`) with the jerk box one period
+of the crane's slowest joint mode (``CraneModel.slowest_joint_period_s``); the ratio is against that plan, and the
+totals add the settle time against the library's own plan (docs/runtime.md, "Per-joint natural frequencies").
 """
 
 from __future__ import annotations
@@ -45,13 +51,14 @@ from pathlib import Path
 import numpy as np
 
 from motionlib import ExecuteOptions, Library, PlanOptions, execute
-from motionlib.control.control_types import ControllerParams
+from motionlib.control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams
 from motionlib.control.tracker import TrackerParams
 from motionlib.planning.planner import Planner
 from motionlib.planning.redundancy import TelescopeProfile
 from motionlib.planning.spline import TipSpline
 from motionlib.planning.trajectory import Trajectory
 from motionlib.sim.loop import LoopOptions
+from motionlib.sim.plant import SimParams
 
 #: The issue's targets: settle ratio median and max, overshoot (m).
 TARGET_RATIO_MEDIAN, TARGET_RATIO_MAX, TARGET_OVERSHOOT_M = 1.15, 1.35, 0.05
@@ -80,12 +87,13 @@ def spread_rows(n_rows: int, n: int) -> np.ndarray:
 
 
 def run_row(lib: Library, row: int, settle_swing_rad: float, controller: ControllerParams,
-            tracker: TrackerParams | None = None, traj: Trajectory | None = None) -> Outcome:
+            tracker: TrackerParams | None = None, traj: Trajectory | None = None, sim: SimParams | None = None
+            ) -> Outcome:
     """Execute library row ``row`` (or ``traj`` in its place) in M6 with the passive operator; its measures."""
     loop = LoopOptions(settle_swing_rad=settle_swing_rad)
     run = execute(lib.trajectory(row) if traj is None else traj, lib.crane, lib.scene, mode="M6", operator="passive",
                   options=ExecuteOptions(seed=0, time_limit_s=TIME_LIMIT_S, loop=loop, controller=controller,
-                                         tracker=tracker or TrackerParams()))
+                                         tracker=tracker or TrackerParams(), sim=sim or SimParams()))
     s = run.summary
     if s.planned_duration_s is None or s.settle_ratio is None or s.overshoot_m is None:
         raise RuntimeError("a library row's run has a trajectory, so its summary has these")
@@ -93,17 +101,19 @@ def run_row(lib: Library, row: int, settle_swing_rad: float, controller: Control
                    run.settled, s.total_jerk)
 
 
-def manual_jerk(lib: Library, row: int) -> tuple[float, float]:
+def manual_jerk(lib: Library, row: int, controller: ControllerParams, sim: SimParams) -> tuple[float, float]:
     """Total jerk (m^2/s^5) and settle time (s) of the model expert's M1 run of row ``row``'s move."""
     s = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M1", operator="expert", target=lib.end_p[row],
-                options=ExecuteOptions(seed=0, time_limit_s=MANUAL_TIME_LIMIT_S)).summary
+                options=ExecuteOptions(seed=0, time_limit_s=MANUAL_TIME_LIMIT_S, controller=controller,
+                                       sim=sim)).summary
     return s.total_jerk, s.cycle_time_s
 
 
-def time_optimal(lib: Library, row: int) -> Trajectory:
-    """Row ``row``'s path timed without the swing shaping (the time-optimal plan of the same path)."""
+def retimed(lib: Library, row: int, **options: object) -> Trajectory:
+    """Row ``row``'s path timed again by :meth:`Planner.plan_along` under ``PlanOptions(**options)``: e.g.
+    ``swing_shaping=False``, the time-optimal plan of the same path."""
     traj = lib.trajectory(row)
-    planner = Planner(lib.crane, lib.scene, PlanOptions(loaded=traj.info.loaded, swing_shaping=False))
+    planner = Planner(lib.crane, lib.scene, PlanOptions(loaded=traj.info.loaded, **options))  # type: ignore[arg-type]
     spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)
     telescope = TelescopeProfile(traj.telescope_control_points, spline.length)
     return planner.plan_along(traj.q[0], spline, telescope).raise_for_status().trajectory
@@ -123,6 +133,8 @@ def main() -> None:
                         help="also run each row with the old settle definition (tip speed only) for comparison")
     parser.add_argument("--no-swing-damping", action="store_true", help="the controller without its swing damping")
     parser.add_argument("--m1", action="store_true", help="also run each move by the model expert in M1 (total jerk)")
+    parser.add_argument("--per-joint-stiffness", action="store_true",
+                        help="each joint its own oil-spring frequency; paths re-timed with the slowest joint's period")
     args = parser.parse_args()
     if args.rows < 1:
         parser.error("--rows: expected >= 1")
@@ -130,7 +142,13 @@ def main() -> None:
     rows = spread_rows(len(lib), args.rows)
     swing_tol = LoopOptions().settle_swing_rad
     controller = ControllerParams(swing_damping=0.0) if args.no_swing_damping else ControllerParams()
-    print(f"library {args.library}: {len(lib)} rows, running {rows.size}; M6, passive operator, default plant, "
+    sim, box = SimParams(), None
+    if args.per_joint_stiffness:
+        sim, box = SimParams(natural_freq_hz=None), lib.crane.model.slowest_joint_period_s()
+        controller = ControllerParams(joint_natural_freq_hz=None,
+                                      swing_damping=0.0 if args.no_swing_damping else PER_JOINT_SWING_DAMPING)
+    plant = f"per-joint plant, paths re-timed with a {box:.3f} s jerk box" if box else "default plant"
+    print(f"library {args.library}: {len(lib)} rows, running {rows.size}; M6, passive operator, {plant}, "
           f"swing damping {controller.swing_damping:g}, seed 0, time limit {TIME_LIMIT_S:g} s")
     print(f"settled = tip < {LoopOptions().settle_speed_m_s:g} m/s and swing < {swing_tol:g} rad for "
           f"{LoopOptions().settle_hold_s:g} s; targets: ratio median <= {TARGET_RATIO_MEDIAN}, max <= "
@@ -148,26 +166,33 @@ def main() -> None:
     new, old, base, manual = [], [], [], []
     before = ControllerParams(swing_damping=controller.swing_damping, swing_damping_deadband_rad=0.0)
     t0 = time.perf_counter()
+    library_planned = []
     for row in rows.tolist():
-        o = run_row(lib, row, swing_tol, controller)
+        traj = retimed(lib, row, jerk_box_s=box) if box else None
+        o = run_row(lib, row, swing_tol, controller, traj=traj, sim=sim)
         new.append(o)
+        library_planned.append(lib.trajectory(row).duration_s)
         line = (f"{row:5d} {o.planned_s:9.2f} {o.settle_s:8.2f} {o.ratio:6.2f} {o.overshoot_m:11.3f} "
                 f"{o.swing_rad:9.3f} {'yes' if o.settled else 'NO':>7}")
         if args.baseline:
             b = run_row(lib, row, swing_tol, before, TrackerParams(timing="path", lateral_gain_per_s=0.0),
-                         time_optimal(lib, row))
+                         retimed(lib, row, swing_shaping=False), sim)
             base.append(b)
             line += f" | {b.planned_s:14.2f} {b.settle_s:13.2f} {o.settle_s / b.settle_s:13.2f}"
         if args.no_swing_settle:
-            b = run_row(lib, row, NO_SWING_RAD, controller)
+            b = run_row(lib, row, NO_SWING_RAD, controller, traj=traj, sim=sim)
             old.append(b)
             line += f" | {b.settle_s:10.2f} {b.ratio:6.2f} {b.swing_rad:9.3f} {'yes' if b.settled else 'NO':>7}"
         if args.m1:
-            manual.append(manual_jerk(lib, row))
+            manual.append(manual_jerk(lib, row, controller, sim))
             line += f" | {o.total_jerk:8.0f} {manual[-1][0]:8.0f} {manual[-1][1]:11.2f}"
         print(line, flush=True)
     print("-" * len(header))
     _print_totals("swing-settled", new)
+    if box:
+        settle, planned = np.array([o.settle_s for o in new]), np.array([o.planned_s for o in new])
+        print(f"re-timed plans / library plans median {np.median(planned / library_planned):.3f}; settle time / "
+              f"library plan median {np.median(settle / library_planned):.3f}")
     if old:
         _print_totals("tip-only (old)", old)
     if base:

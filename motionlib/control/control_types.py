@@ -31,6 +31,7 @@ _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 #: loading cycle the model expert places 4 of 4 logs at 0.2 and none at 0.45.
 PER_JOINT_SWING_DAMPING = 0.2
 
+
 class Mode(enum.Enum):
     """Operating modes of 000 section 3.3."""
 
