@@ -84,7 +84,9 @@ def expert_replanned(expert_recording):
 
 
 @pytest.mark.slow
-def test_replanning_keeps_the_recorded_path_and_is_never_slower(expert_recording, expert_replanned):
+def test_replanning_keeps_the_recorded_path_is_never_slower_and_the_cli_reports_it(expert_replanned, first_cycle_file):
+    """The API's rows; then ``analyze --replan --json`` on the same file: its totals are the sums of its rows, and
+    it ran the same computation (one test, so that the ~30 s replanning is not repeated on another xdist worker)."""
     rows = expert_replanned.motions
     assert [m.state for m in rows] == ["S6", "S8"]
     along = [m for m in rows if m.along.status is ReplanStatus.OK]
@@ -95,6 +97,17 @@ def test_replanning_keeps_the_recorded_path_and_is_never_slower(expert_recording
     for m in rows:
         assert m.free.status is ReplanStatus.OK, m.free.reason
         assert m.free.duration_s <= m.recorded_s
+    result = CliRunner().invoke(cli, ["analyze", str(first_cycle_file), "--replan", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.output)["replan"]
+    for which in ("along", "free"):
+        ok = [m for m in report["motions"] if m[which]["status"] == "ok"]
+        tot = report["totals"][which]
+        assert tot["n"] == len(ok)
+        assert tot["recorded_s"] == pytest.approx(math.fsum(m["recorded_s"] for m in ok), abs=1e-9)
+        assert tot["replanned_s"] == pytest.approx(math.fsum(m[which]["duration_s"] for m in ok), abs=1e-9)
+        assert tot["saving_s"] == pytest.approx(tot["recorded_s"] - tot["replanned_s"], abs=1e-9)
+    assert report == json.loads(json.dumps(expert_replanned.to_dict()))  # the CLI ran the API's computation
 
 
 @pytest.mark.slow
@@ -147,22 +160,6 @@ def test_time_optimal_motion_replanned_finds_no_saving():
         assert row.along.duration_s == row.recorded_s and "slower than the recording's" in row.along.reason
     else:
         assert row.along.deviation_m <= 0.01
-
-
-@pytest.mark.slow
-def test_cli_totals_equal_the_sum_of_the_rows(expert_replanned, first_cycle_file):
-    result = CliRunner().invoke(cli, ["analyze", str(first_cycle_file), "--replan", "--json"])
-    assert result.exit_code == 0, result.output
-    report = json.loads(result.output)["replan"]
-    for which in ("along", "free"):
-        ok = [m for m in report["motions"] if m[which]["status"] == "ok"]
-        tot = report["totals"][which]
-        assert tot["n"] == len(ok)
-        assert tot["recorded_s"] == pytest.approx(math.fsum(m["recorded_s"] for m in ok), abs=1e-9)
-        assert tot["replanned_s"] == pytest.approx(math.fsum(m[which]["duration_s"] for m in ok), abs=1e-9)
-        assert tot["saving_s"] == pytest.approx(tot["recorded_s"] - tot["replanned_s"], abs=1e-9)
-    # the CLI ran the same computation as the API
-    assert report == json.loads(json.dumps(expert_replanned.to_dict()))
 
 
 def test_recording_faster_than_the_crane_is_flagged_not_replanned():
