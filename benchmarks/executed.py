@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -164,7 +164,7 @@ def main() -> None:
     print(header)
     print("-" * len(header))
     new, old, base, manual = [], [], [], []
-    before = ControllerParams(swing_damping=controller.swing_damping, swing_damping_deadband_rad=0.0)
+    before = replace(controller, swing_damping_deadband_rad=0.0)
     t0 = time.perf_counter()
     library_planned = []
     for row in rows.tolist():
