@@ -34,11 +34,11 @@ With the default controller's swing damping the grapple has mostly stopped by th
 so the two agree; ``--no-swing-damping`` (``ControllerParams(swing_damping=0)``, ``motionlib execute
 --no-swing-damping``) runs the controller without it, where the tip rests long before the swing decays.
 
-``--per-joint-stiffness`` runs every row on the plant with each joint's own oil-spring frequency
-(``SimParams(natural_freq_hz=None)``) with the controller for it (``joint_natural_freq_hz=None``, swing damping
-``PER_JOINT_SWING_DAMPING``), each row's path re-timed (:meth:`Planner.plan_along`) with the jerk box one period
-of the crane's slowest joint mode (``CraneModel.slowest_joint_period_s``); the ratio is against that plan, and the
-totals add the settle time against the library's own plan (docs/runtime.md, "Per-joint natural frequencies").
+``--per-joint-stiffness`` runs every row on the plant with each joint's own oil-spring frequency with the
+controller for it (``ExecuteOptions.with_per_joint_stiffness``), each row's path re-timed
+(:meth:`Planner.plan_along`) with the jerk box one period of the crane's slowest joint mode
+(``CraneModel.slowest_joint_period_s``); the ratio is against that plan, and the totals add the settle time against
+the library's own plan (docs/runtime.md, "Per-joint natural frequencies").
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from motionlib import ExecuteOptions, Library, PlanOptions, execute
-from motionlib.control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams
+from motionlib.control.control_types import ControllerParams
 from motionlib.control.tracker import TrackerParams
 from motionlib.planning.planner import Planner
 from motionlib.planning.redundancy import TelescopeProfile
@@ -141,12 +141,12 @@ def main() -> None:
     lib = Library.open(args.library)
     rows = spread_rows(len(lib), args.rows)
     swing_tol = LoopOptions().settle_swing_rad
-    controller = ControllerParams(swing_damping=0.0) if args.no_swing_damping else ControllerParams()
-    sim, box = SimParams(), None
+    options = ExecuteOptions(controller=ControllerParams(swing_damping=0.0) if args.no_swing_damping
+                             else ControllerParams())
+    box = None
     if args.per_joint_stiffness:
-        sim, box = SimParams(natural_freq_hz=None), lib.crane.model.slowest_joint_period_s()
-        controller = ControllerParams(joint_natural_freq_hz=None,
-                                      swing_damping=0.0 if args.no_swing_damping else PER_JOINT_SWING_DAMPING)
+        options, box = options.with_per_joint_stiffness(), lib.crane.model.slowest_joint_period_s()
+    controller, sim = options.controller, options.sim
     plant = f"per-joint plant, paths re-timed with a {box:.3f} s jerk box" if box else "default plant"
     print(f"library {args.library}: {len(lib)} rows, running {rows.size}; M6, passive operator, {plant}, "
           f"swing damping {controller.swing_damping:g}, seed 0, time limit {TIME_LIMIT_S:g} s")

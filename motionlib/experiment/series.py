@@ -39,13 +39,13 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams, Mode
+from ..control.control_types import ControllerParams, Mode
 from ..control.metrics import FilterOptions
 from ..control.runlog import RunLog
 from ..errors import InputError, MotionlibError
@@ -55,7 +55,6 @@ from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
 from ..sim.execute import ExecuteOptions, prepare_run
 from ..sim.loop import run_closed_loop
-from ..sim.plant import SimParams
 from .measures import Signals
 from .panel import PanelOperator, panel_operator
 from .scenario import Scenario, ScenarioOptions
@@ -298,9 +297,9 @@ class RunOptions:
         Seed of the plant's valve noise (``ExecuteOptions.seed``); 0 in the experiment.
     per_joint_stiffness : bool
         Each joint its own oil-spring frequency from the crane file, in the plant and in the controller's
-        position gain (``SimParams(natural_freq_hz=None)``, ``ControllerParams(joint_natural_freq_hz=None)``),
-        with swing damping :data:`~motionlib.control.control_types.PER_JOINT_SWING_DAMPING` when it is on
-        (docs/runtime.md, "Per-joint natural frequencies"). Off by default: every joint 2.5 Hz, the plant the
+        position gain, with the swing damping for that plant when it is on
+        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`; docs/runtime.md, "Per-joint
+        natural frequencies"). Off by default: every joint 2.5 Hz, the plant the
         experiment and the controller were tuned on.
     """
 
@@ -342,19 +341,15 @@ class ExperimentContext:
         self.scenario = Scenario.from_scene(self.scene, self.options.scenario)
         self.motions = motions
         self.guard_scene = scene_without_logs(scene, crane, f"{where} without logs")
-        controller = ControllerParams(
-            command_ramp=self.options.command_ramp,
-            swing_damping=ControllerParams().swing_damping if self.options.swing_damping else 0.0,
-        )
-        sim = SimParams()
-        if self.options.per_joint_stiffness:
-            sim = replace(sim, natural_freq_hz=None)
-            controller = replace(controller, joint_natural_freq_hz=None,
-                                 swing_damping=PER_JOINT_SWING_DAMPING if self.options.swing_damping else 0.0)
         self.execute_options = ExecuteOptions(
             time_limit_s=self.options.time_limit_s, obstacle_guard=self.options.guard, seed=self.options.seed,
-            controller=controller, sim=sim,
+            controller=ControllerParams(
+                command_ramp=self.options.command_ramp,
+                swing_damping=ControllerParams().swing_damping if self.options.swing_damping else 0.0,
+            ),
         )
+        if self.options.per_joint_stiffness:
+            self.execute_options = self.execute_options.with_per_joint_stiffness()
 
 
 def scene_without_logs(scene: Scene, crane: Any, file: str) -> Scene:

@@ -23,7 +23,7 @@ import numpy as np
 
 from ..checks import check_scalar, check_vector
 from ..control.accommodation import AccommodationOptions, accommodation_source, contact_loop_warning
-from ..control.control_types import ControllerParams, Mode
+from ..control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams, Mode
 from ..control.controller import SharedController
 from ..control.frames_source import stick_in_frames
 from ..control.metrics import RunSummary, run_summary
@@ -118,6 +118,17 @@ class ExecuteOptions:
     def loop_options(self) -> LoopOptions:
         """The loop's settle conditions with this run's time limit."""
         return replace(self.loop, time_limit_s=self.time_limit_s)
+
+    def with_per_joint_stiffness(self) -> ExecuteOptions:
+        """These options on the plant with each joint's own oil-spring frequency, with the controller for it.
+
+        The plant's ``SimParams(natural_freq_hz=None)``, the controller's position gain from the same frequencies
+        (``joint_natural_freq_hz=None``) and, where the swing damping is on, ``PER_JOINT_SWING_DAMPING``
+        (docs/runtime.md, "Per-joint natural frequencies").
+        """
+        damping = PER_JOINT_SWING_DAMPING if self.controller.swing_damping > 0.0 else 0.0
+        return replace(self, sim=replace(self.sim, natural_freq_hz=None),
+                       controller=replace(self.controller, joint_natural_freq_hz=None, swing_damping=damping))
 
 
 class RunStatus(enum.Enum):
