@@ -10,7 +10,11 @@ pump-aware lower bound and to both telescope baselines (constant and linearly
 interpolated telescope on the tip-space path). ``--compare-old`` also plans every
 query with the tip-space path alone (the pipeline before joint-space candidates,
 ``PlanOptions(joint_candidates=False)``) in the same run and prints the duration
-and compute-time ratios new / old. Every plan also reports the grapple's predicted residual swing
+and compute-time ratios new / old. ``--compare-library`` also plans every query with a library build's
+planner defaults (``motionlib.library.spec.LIBRARY_PLANNER_DEFAULTS``: the joint-space baseline not
+verified, the tip-space path only when the joint candidates give no plan), right after the default plan,
+and prints the median per-query compute ratio library / default, the duration ratio and how many
+trajectories are identical. Every plan also reports the grapple's predicted residual swing
 (rad), its time to settled (s), its total jerk (000 eq. 6, m^2/s^5) and the swing shaper chosen; the summary
 also sets the time to settled against the swing-blind joint-space baseline's own (its predicted residual swing's
 passive decay added to its duration), the comparison on the figure of merit;
@@ -42,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from motionlib.library.spec import LIBRARY_PLANNER_DEFAULTS
 from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
 from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit, braking_margin
@@ -164,15 +169,18 @@ def slew_bound_s(crane: Crane, traj) -> float:
     return res.duration_s if res.ok else float("nan")
 
 
-def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bool, shaping: bool = True) -> list[dict]:
+def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bool, shaping: bool = True,
+        compare_library: bool = False) -> list[dict]:
     crane = Crane.load(crane_name)
     scene = Scene.load(ROOT / scene_file)
-    variants = {"new": True, "old": False} if compare_old else {"new": True}
+    variants: dict[str, dict] = {"new": {}}
+    if compare_old:
+        variants["old"] = {"joint_candidates": False}
+    if compare_library:
+        variants["library"] = LIBRARY_PLANNER_DEFAULTS
     planners = {
-        (v, loaded): Planner(
-            crane, scene, PlanOptions(loaded=loaded, seed=seed, joint_candidates=joint, swing_shaping=shaping)
-        )
-        for v, joint in variants.items()
+        (v, loaded): Planner(crane, scene, PlanOptions(loaded=loaded, seed=seed, swing_shaping=shaping, **kw))
+        for v, kw in variants.items()
         for loaded in (False, True)
     }
     queries = queries_fn(crane, scene)
@@ -218,6 +226,14 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
             row["old_ok"] = old.ok
             if res.ok and old.ok:
                 row["old_ratio"] = res.trajectory.duration_s / old.trajectory.duration_s
+        if compare_library:
+            t0 = time.perf_counter()
+            lib = planners["library", loaded].plan(start, goal)
+            row["lib_total_s"] = time.perf_counter() - t0
+            row["lib_ok"] = lib.ok
+            if res.ok and lib.ok:
+                row["lib_ratio"] = lib.trajectory.duration_s / res.trajectory.duration_s
+                row["lib_same"] = bool(np.array_equal(lib.trajectory.q, res.trajectory.q))
         rows.append(row)
     print(f"{scene.name}: first query incl. NLP build {warmup:.2f} s")
     return rows
@@ -227,6 +243,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--compare-old", action="store_true", help="also plan with the tip-space path alone")
+    ap.add_argument("--compare-library", action="store_true", help="also plan with a library build's defaults")
     ap.add_argument("--no-swing-shaping", action="store_true", help="time-optimal plans (no swing shaping)")
     ap.add_argument("--random", type=int, metavar="N", help="N random queries per shipped scene (seed: --seed)")
     args = ap.parse_args()
@@ -235,8 +252,10 @@ def main() -> None:
         forwarder_fn = log_loading_fn = random_queries(args.random, args.seed)
     else:
         forwarder_fn, log_loading_fn = forwarder_queries, log_loading_queries
-    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_fn, args.seed, args.compare_old, shaping)
-    rows += run("obstacles/log-loading.yaml", "lab", log_loading_fn, args.seed, args.compare_old, shaping)
+    rows = run("obstacles/forwarder-site.yaml", "forwarder", forwarder_fn, args.seed, args.compare_old, shaping,
+               args.compare_library)
+    rows += run("obstacles/log-loading.yaml", "lab", log_loading_fn, args.seed, args.compare_old, shaping,
+               args.compare_library)
 
     cols = ("path_s", "jointspace_s", "trajopt_s", "redundancy_s", "timing_s", "verification_s", "swing_s")
     ratio_keys = ("js_ratio", "lb_ratio", "old_ratio", "const_ratio", "linear_ratio", "slew_ratio")
@@ -277,6 +296,17 @@ def main() -> None:
             parts.append(
                 f"old {old_ms:.0f} ms (ratio {median_ms / old_ms:.2f}), old success "
                 f"{sum(r['old_ok'] for r in sub)}/{len(sub)}"
+            )
+        if all("lib_total_s" in r for r in sub):
+            both = [r for r in sub if "lib_ratio" in r]
+            lib_ratios = [r["lib_total_s"] / r["total_s"] for r in sub]
+            parts.append(
+                f"library defaults: median compute {statistics.median(r['lib_total_s'] for r in sub) * 1000:.0f} ms "
+                f"(median per-query ratio {statistics.median(lib_ratios):.3f}), success "
+                f"{sum(r['lib_ok'] for r in sub)}/{len(sub)}, mean T ratio "
+                f"{np.mean([r['lib_ratio'] for r in both]) if both else float('nan'):.5f} (max "
+                f"{max((r['lib_ratio'] for r in both), default=float('nan')):.4f}), identical "
+                f"{sum(r['lib_same'] for r in both)}/{len(both)}"
             )
         for key, label in zip(
             ratio_keys, ("joint-space baseline", "lower bound", "old", "constant", "linear", "slew bound"), strict=True

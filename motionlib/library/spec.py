@@ -290,12 +290,19 @@ class LibrarySpec:
         return hashlib.sha256(text.encode()).hexdigest()
 
 
+#: Planner options whose default in a library differs from :class:`~motionlib.planning.planner.PlanOptions`'s (a
+#: spec's ``planner`` mapping overrides them): the joint-space baseline is not verified (a report beside the motion)
+#: and the tip-space path is searched only when the joint candidates give no plan (docs/library-spec.md, "planner").
+LIBRARY_PLANNER_DEFAULTS: dict[str, Any] = {"jointspace_baseline": False, "tip_path_always": False}
+
+
 def plan_options(planner: dict[str, Any], loaded: bool = False, seed: int = 0) -> Any:
-    """:class:`motionlib.planning.planner.PlanOptions` from a spec's ``planner`` mapping, ``loaded`` and ``seed``."""
+    """:class:`motionlib.planning.planner.PlanOptions` from a spec's ``planner`` mapping (over
+    :data:`LIBRARY_PLANNER_DEFAULTS`), ``loaded`` and ``seed``."""
     from ..planning.planner import PlanOptions
     from ..planning.redundancy import RedundancyOptions
 
-    kw = dict(planner)
+    kw = {**LIBRARY_PLANNER_DEFAULTS, **planner}
     if "redundancy" in kw:
         kw["redundancy"] = RedundancyOptions(**kw["redundancy"])
     return PlanOptions(loaded=loaded, seed=seed, **kw)

@@ -11,6 +11,8 @@ kinematics
     optional grapple rotator q5, the log's yaw ``q1 + q5`` and log-point Jacobians.
 fast_kinematics
     The same tip kinematics on plain floats, for the 200 Hz loop and the simulator.
+symbolic
+    ``CASADI_OPS``: the kinematics' functions on CasADi expressions (NLPs, the collision checker's Jacobians).
 limits
     Joint position, velocity, acceleration and shared-pump flow limits as objects
     (003 eqs. 4.8-4.10), their TOPPRA constraints and the dense sample check.

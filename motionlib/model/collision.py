@@ -23,6 +23,10 @@ Pairs checked
 ground, and the grapple and log in the self-collision pairs (column and boom keep
 their own radius there), so the crane keeps at least ``margin`` clearance.
 
+Clearance gradients (for the planner's sequential convexification, :meth:`CollisionChecker.distance_and_gradient`)
+come from the closest pair: the unit vector between fcl's closest points times the Jacobian of the crane part's
+point, from CasADi's derivative of the segment ends; forward differences where the points do not give them.
+
 fcl objects are built once; each query only moves them (the telescope capsule's
 length is reset when the extension changes). Endpoints come from the boom-plane
 kinematics :meth:`Crane.planar_fk` evaluated with ``math`` (one configuration)
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
 
+import casadi as ca
 import fcl
 import numpy as np
 
@@ -43,6 +48,7 @@ from ..checks import check_points, check_scalar, check_vector
 from ..errors import InputError
 from .kinematics import Crane
 from .scene import Obstacle, Scene
+from .symbolic import CASADI_OPS
 
 _MATH_OPS = SimpleNamespace(sin=math.sin, cos=math.cos, atan2=math.atan2, acos=math.acos, sqrt=math.sqrt)
 _NUMPY_OPS = SimpleNamespace(sin=np.sin, cos=np.cos, atan2=np.arctan2, acos=np.arccos, sqrt=np.sqrt)
@@ -51,6 +57,8 @@ _BATCH = 2048  # configurations per vectorised chunk
 Closest = tuple[float, str, str, np.ndarray]
 _COLLIDE_REQUEST = fcl.CollisionRequest()
 _DISTANCE_REQUEST = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
+#: Forward-difference step (rad, m) of a clearance gradient the closest points do not give.
+GRADIENT_STEP = 1e-3
 
 Point = tuple[float, float, float]
 
@@ -227,6 +235,8 @@ class CollisionChecker:
         self.column_clearance: DistanceResult = _result(self._column_distance)
         #: True when an obstacle touches the column: then every configuration is in collision.
         self.column_blocked: bool = self.column_clearance.distance <= 0.0
+        self._segment_jacobian, self._segment_rows = self._segment_jacobian_function()
+        self._parts_by_name = {part.name: part for part in self._arm_parts[True]}
 
     @staticmethod
     def _manager(parts: tuple[_MovingCapsule, ...]) -> fcl.DynamicAABBTreeCollisionManager:
@@ -507,6 +517,72 @@ class CollisionChecker:
         best = _better(best, self._closest_to_obstacles(parts, best))
         return _result(best)
 
+    def _segment_jacobian_function(self) -> tuple[ca.Function, dict[str, int]]:
+        """CasADi function ``q (4,) -> (6 k, 4)``: the Jacobians of the moving parts' segment ends (a then b, each
+        (3, 4)), part by part, as :meth:`_place_arm` places them (the hanging parts along the tip's heading); and the
+        first row of each part."""
+        q = ca.SX.sym("q", 4)
+        pivot, jib_pivot, jib_end, tip = self._arm_points(q[0], q[1], q[2], q[3], CASADI_OPS)
+        radial = ca.sqrt(tip[0] ** 2 + tip[1] ** 2)
+        ux, uy = tip[0] / radial, tip[1] / radial
+        segments = {"boom": (pivot, jib_pivot), "jib": (jib_pivot, jib_end), "telescope": (jib_end, tip)}
+        for part in self._hanging[True]:
+            segments[part.name] = self._hang(part, tip[0], tip[1], tip[2], ux, uy)
+        ends = ca.vertcat(*[ca.vertcat(*a, *b) for a, b in segments.values()])
+        rows = {name: 6 * i for i, name in enumerate(segments)}
+        return ca.Function("segment_jacobians", [q], [ca.jacobian(ends, q)]), rows
+
+    def _closest_gradient(self, q: np.ndarray, closest: DistanceResult) -> np.ndarray | None:
+        """Gradient (4,) of a clearance at ``q`` (4,) from its closest pair; None where the pair does not give it.
+
+        The clearance is the distance between the pair's closest points. To first order only the crane part's
+        motion changes it, taken at the closest point's fraction ``s`` of the part's segment ``a``-``b`` (envelope
+        theorem: sliding the closest points along the surfaces does not), so the gradient is
+        ``n^T ((1 - s) J_a + s J_b)``, ``n`` the unit vector from the obstacle's point to the part's and ``J_a``,
+        ``J_b`` the Jacobians (3, 4) of the segment's ends (:meth:`_segment_jacobian_function`). None for an
+        overlap (fcl's penetration points), a self-collision pair with the moving boom, or no pair.
+        """
+        if not (closest.distance > 0.0 and math.isfinite(closest.distance)) or closest.obstacle == "boom":
+            return None
+        p_part, p_other = closest.points
+        n = p_part - p_other
+        norm = float(np.linalg.norm(n))
+        if norm <= 0.0 or closest.crane_part not in self._segment_rows:
+            return None
+        part = self._parts_by_name[closest.crane_part]  # placed where the closest points were found
+        a, b = np.asarray(part.a), np.asarray(part.b)
+        axis = b - a
+        s = float(np.clip(np.dot(p_part - a, axis) / max(float(np.dot(axis, axis)), 1e-18), 0.0, 1.0))
+        row = self._segment_rows[closest.crane_part]
+        jac = np.asarray(self._segment_jacobian(q))
+        return (n / norm) @ ((1.0 - s) * jac[row : row + 3] + s * jac[row + 3 : row + 6])
+
+    def distance_and_gradient(self, q: Any, loaded: bool = False) -> tuple[float, np.ndarray]:
+        """:meth:`distance` at ``q`` (4,) and its gradient (4,) (m/rad, m/m) from the closest points
+        (:meth:`_closest_gradient`); forward differences of :meth:`distance` (step :data:`GRADIENT_STEP`) where
+        they do not give it."""
+        q = check_vector(q, 4, "q")
+        closest = self.distance(q, loaded)
+        grad = self._closest_gradient(q, closest)
+        if grad is None:
+            grad = _forward_difference(lambda x: self.distance(x, loaded).distance, q, closest.distance)
+        return closest.distance, grad
+
+    def configuration_tip_clearance_and_gradient(self, q: Any, loaded: bool = False) -> tuple[float, np.ndarray]:
+        """:meth:`tip_clearance` at the tip of ``q`` (4,) (the log along the tip's heading) and its gradient (4,)
+        in ``q`` (m/rad, m/m), from the closest points, or forward differences where they do not give it."""
+        q = check_vector(q, 4, "q")
+
+        def closest(x: np.ndarray) -> DistanceResult:
+            q1, q2, q3, q4 = x.tolist()
+            return self.tip_distance(self._arm_points(q1, q2, q3, q4, _MATH_OPS)[3], loaded)
+
+        found = closest(q)
+        grad = self._closest_gradient(q, found)
+        if grad is None:
+            grad = _forward_difference(lambda x: closest(x).distance, q, found.distance)
+        return found.distance, grad
+
     def tip_clearance(self, p_tip: Any, loaded: bool = False) -> float:
         """Clearance (m) of the grapple (and log) hanging at ``p_tip`` (3,) from the scene, ground and column.
 
@@ -569,6 +645,16 @@ def _pair_distance(part: _MovingCapsule, other: fcl.CollisionObject, other_name:
         p_part, p_other = p_other, p_part
         d = max(d, 0.0)
     return (float(d), part.name, other_name, np.array([p_part, p_other], dtype=np.float64))
+
+
+def _forward_difference(f: Any, q: np.ndarray, value: float) -> np.ndarray:
+    """Forward-difference gradient (4,) of ``f`` at ``q`` (4,), whose value there is ``value``."""
+    grad = np.empty(4)
+    for i in range(4):
+        dq = np.zeros(4)
+        dq[i] = GRADIENT_STEP
+        grad[i] = (f(q + dq) - value) / GRADIENT_STEP
+    return grad
 
 
 def _better(best: Closest, cand: Closest | None) -> Closest:

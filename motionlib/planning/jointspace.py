@@ -210,7 +210,8 @@ class JointSpaceBaseline:
     Attributes
     ----------
     duration_s : float
-        Fastest verified duration (s); NaN when no joint path could be timed and verified.
+        Fastest verified duration (s); NaN when no joint path could be timed and verified, or none was verified
+        (``verify`` False).
     durations_s : dict of str to float
         Per joint path (named by the caller): its TOPPRA duration (s) under the first attempt's
         limits, NaN when timing failed.
@@ -237,12 +238,15 @@ def jointspace_baseline(
     attempts: Sequence[tuple[Sequence[Limit], int]],
     verifier: Verifier,
     dt: float,
+    verify: bool = True,
 ) -> JointSpaceBaseline:
     """Time every joint path (n, 4) and verify the fastest first until one passes
     (:func:`~motionlib.planning.verification.time_and_verify`).
 
     The planner passes its own timing attempts (its limit objects and grid sizes) and verifier,
-    so the baseline is held to exactly the rules of the main pipeline.
+    so the baseline is held to exactly the rules of the main pipeline. With ``verify`` False the
+    paths are only timed under the first attempt (``durations_s``, which order the planner's joint
+    candidates) and ``duration_s`` is NaN: the baseline is not established.
     """
     prepared = {name: joint_path_parameter(crane, q_wp) for name, q_wp in paths.items()}
     limits, min_grid = attempts[0]
@@ -251,7 +255,7 @@ def jointspace_baseline(
     timed = [name for name, r in first.items() if r.ok]
     verified: dict[str, bool] = {}
     best: TimingResult | None = None
-    for name in sorted(timed, key=lambda k: durations[k]):
+    for name in sorted(timed, key=lambda k: durations[k]) if verify else []:
         if best is not None and best.duration_s <= durations[name]:  # re-timing only slows a path down
             break
         timing, report, _ = time_and_verify(*prepared[name], attempts, verifier, dt, first=first[name])

@@ -13,7 +13,8 @@ result with a status):
      telescope extension reaches it inside the workspace with the whole arm clear, and (a slew range
      beyond a full turn) its heading is off the cut that keeps the path's slew within the limits
      (:mod:`motionlib.planning.slew_cut`). Kept as a candidate, so the result is never slower than
-     the tip-shortest path. Any candidate path whose slew leaves the limits is dropped before its
+     the tip-shortest path (``PlanOptions.tip_path_always``; library builds search it only when the
+     joint candidates give no plan). Any candidate path whose slew leaves the limits is dropped before its
      telescope profile.
    * joint paths (:mod:`motionlib.planning.jointspace`): the straight joint-space line, or OMPL
      RRTConnect in the joint space under the same clearances, to ``goal_telescopes`` goal
@@ -152,8 +153,11 @@ class PlanStatus(Enum):
 #: settled law starts from the ZVD-shaped law and its NLP is built once per structure (on the log-loading spec 207 of
 #: 209 plans within 3e-8 of planner 8's, two in other local optima); one that exceeds a limit by more than
 #: ``SETTLED_MAX_RESTRETCH`` is solved once on the grid twice as fine too, and a joint path whose telescope profiles
-#: all leave the limits (a path along a joint limit) is a candidate on its own configurations.
-PLANNER_VERSION = 9
+#: all leave the limits (a path along a joint limit) is a candidate on its own configurations; 10: library builds
+#: (not :func:`plan`'s defaults) skip the joint-space baseline's verification and search the tip-space path only
+#: when the joint candidates give no plan (``PlanOptions.jointspace_baseline``, ``PlanOptions.tip_path_always``);
+#: the minimum-time joint motion's clearance gradients come from fcl's closest points (were forward differences).
+PLANNER_VERSION = 10
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -165,6 +169,8 @@ JOINT_PROFILE = "joint"
 #: Why the closed-form IK's joint paths are not used from a start with the jib past straight.
 OFF_BRANCH_REASON = ("the closed-form IK (jib folded down) does not give the start configuration back (its jib is "
                      "past straight): only joint paths start there")
+#: Stage ``path``'s reason when the tip-space path was not searched (``PlanOptions.tip_path_always`` False).
+TIP_SKIPPED_REASON = "not searched: the joint candidates gave a plan (PlanOptions.tip_path_always is False)"
 #: Telescope values across the stroke of the goal configurations of the joint-space searches (on every slew branch).
 GOAL_TELESCOPE_SAMPLES = 12
 #: Joint-space searches per query at most, as a multiple of ``PlanOptions.goal_telescopes`` (goals whose search
@@ -249,6 +255,19 @@ class PlanOptions:
     joint_candidates_max : int
         How many joint paths (the fastest in joint space) are optimised into minimum-time motions
         (:mod:`~motionlib.planning.trajopt`) that become candidates in the product's shape.
+    jointspace_baseline : bool
+        Verify the joint-space baseline (``baseline_jointspace_s``, with its residual swing and time to settled).
+        False: the joint paths are only timed (that timing alone orders the joint candidates, so the plan is the
+        same) and the baseline is NaN. Library builds default to False (docs/library-spec.md): the baseline is a
+        report beside the motion, and its dense verification took 12 % of a plan's compute on the planning
+        benchmark's 48 queries (median per-query ratio 0.88, the same 48 trajectories).
+    tip_path_always : bool
+        Search the tip-space path (the ``tip-rrt`` candidate, and the constant and linear telescope baselines on
+        it) on every query. False: only when the joint candidates give no plan, then with all candidates. Library
+        builds default to False: on the planning benchmark's 48 queries and the 209 entries of the log-loading
+        library a joint candidate won every time (the same 48 trajectories at 0.73x the compute, with the
+        baseline not verified); on 100 random queries (``benchmarks/plan.py --random 50``) the tip path won 2,
+        which then take 8 % and 15 % longer (mean duration +0.23 %).
     goal_log_yaw : float or None
         Cranes with a grapple rotator: the yaw (rad, base frame, mod pi) the carried log must have
         at the goal, e.g. :data:`~motionlib.planning.rotator.BUNK_AXIS_YAW` (aligned with the bunk,
@@ -297,6 +316,8 @@ class PlanOptions:
     goal_telescopes: int = 3
     joint_candidates: bool = True
     joint_candidates_max: int = 1
+    jointspace_baseline: bool = True
+    tip_path_always: bool = True
     goal_log_yaw: float | None = None
     swing_shaping: bool = True
     swing_tolerance_rad: float = 0.03
@@ -550,7 +571,6 @@ class Planner:
                 f"goal {goal_p.tolist()} is blocked: for every telescope extension that reaches it, "
                 f"the arm comes within {o.arm_clearance_m} m of an obstacle",
             )
-        start_p = crane.fk(start_q)
         lower_bound = lower_bound_s(crane, self.limits, start_q, goal_p)
         candidates: dict[str, _Candidate] = {}
         rejected_sources: dict[str, str] = {}
@@ -558,36 +578,19 @@ class Planner:
         # 1a. Tip-space path (today's source, kept so the result is never slower than it). Its joint path
         #     comes from the closed-form IK, which cannot start at a start with the jib past straight.
         on_branch = self._ik_gives_back(start_q)
-        t_redundancy = 0.0
         red_details: dict[str, Any] = {}
-        if on_branch:
-            path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s,
-                                    seed=o.seed, bounds=self._bounds())
-            cut = slew_cut(crane, float(start_q[0]), goal_p)  # the tip path keeps the slew within its limits
-
-            def tip_valid(p: np.ndarray) -> bool:
-                return not (cut is not None and cut.blocks(p)) and self._tip_valid(p)
-
-            def grapple_valid(p: np.ndarray) -> bool:
-                return not (cut is not None and cut.blocks(p)) and self._grapple_valid(p)
-
-            t0 = time.perf_counter()
-            path = plan_tip_path(start_p, goal_p, tip_valid, path_opts, spline_is_valid=grapple_valid)
-            stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
-            if path.status is PathStatus.OK and path.spline is not None:
-                t0 = time.perf_counter()
-                candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
-                t_redundancy += time.perf_counter() - t0
-            else:
-                rejected_sources[TIP_SOURCE] = path.reason
-        else:
+        t_redundancy = 0.0
+        if not on_branch:
             rejected_sources[TIP_SOURCE] = OFF_BRANCH_REASON
+        elif o.tip_path_always:
+            t_redundancy += self._tip_candidate(start_full, goal_p, stages, candidates, rejected_sources, red_details)
 
         # 1b. Joint-space paths to several goal telescope values: the joint-space baseline, and
         #     candidates in the product's shape (tip spline of their forward kinematics).
         t0 = time.perf_counter()
         joint_paths, joint_details = self._joint_paths(start_q, goal_p) if o.joint_candidates else ({}, {})
-        baseline_js = jointspace_baseline(crane, joint_paths, self.timing_attempts, self.verifier, o.dt_s)
+        baseline_js = jointspace_baseline(crane, joint_paths, self.timing_attempts, self.verifier, o.dt_s,
+                                          verify=o.jointspace_baseline)
         js_details = {**joint_details, "baseline_durations_s": baseline_js.durations_s,
                       "verified": baseline_js.verified}
         if baseline_js.timing is not None:  # the swing-blind baseline's own time to settled (the figure of merit)
@@ -635,6 +638,15 @@ class Planner:
         t_redundancy += time.perf_counter() - t0 - t_trajopt
         stages["trajopt"] = StageReport("ok", t_trajopt, trajopts)
         stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
+        if on_branch and not o.tip_path_always:  # the tip-space path only when the joint candidates give no plan
+            if candidates:
+                stages["path"] = StageReport("skipped", 0.0, {"reason": TIP_SKIPPED_REASON})
+                result = self._finish(start_full, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s,
+                                      lower_bound)
+                if result.ok:
+                    return result
+            t_redundancy += self._tip_candidate(start_full, goal_p, stages, candidates, rejected_sources, red_details)
+            stages["redundancy"] = StageReport("ok" if candidates else "failed", t_redundancy, red_details)
         if not candidates:
             if TIP_SOURCE in rejected_sources and not joint_paths:
                 return fail(PlanStatus.PATH_FAILED, rejected_sources[TIP_SOURCE])
@@ -642,6 +654,33 @@ class Planner:
             return fail(PlanStatus.REDUNDANCY_FAILED, "no path candidate is usable: " + reasons)
         return self._finish(start_full, goal_p, candidates, rejected_sources, stages, baseline_js.duration_s,
                             lower_bound)
+
+    def _tip_candidate(
+        self, start_full: np.ndarray, goal_p: np.ndarray, stages: dict[str, StageReport],
+        candidates: dict[str, _Candidate], rejected_sources: dict[str, str], red_details: dict[str, Any],
+    ) -> float:
+        """Stage 1a: the tip-space path (OMPL) and its telescope profiles, added to ``candidates`` (or its reason to
+        ``rejected_sources``); reports stage ``path``. Returns the time (s) of its profiles (stage ``redundancy``)."""
+        crane, o = self.crane, self.options
+        path_opts = PathOptions(planner=o.planner, max_checks=o.max_checks, time_limit_s=o.time_limit_s,
+                                seed=o.seed, bounds=self._bounds())
+        cut = slew_cut(crane, float(start_full[0]), goal_p)  # the tip path keeps the slew within its limits
+
+        def tip_valid(p: np.ndarray) -> bool:
+            return not (cut is not None and cut.blocks(p)) and self._tip_valid(p)
+
+        def grapple_valid(p: np.ndarray) -> bool:
+            return not (cut is not None and cut.blocks(p)) and self._grapple_valid(p)
+
+        t0 = time.perf_counter()
+        path = plan_tip_path(crane.fk(start_full[:4]), goal_p, tip_valid, path_opts, spline_is_valid=grapple_valid)
+        stages["path"] = StageReport(path.status.value, time.perf_counter() - t0, dict(path.diagnostics))
+        if path.status is not PathStatus.OK or path.spline is None:
+            rejected_sources[TIP_SOURCE] = path.reason
+            return 0.0
+        t0 = time.perf_counter()
+        candidates[TIP_SOURCE], red_details[TIP_SOURCE] = self._candidate(path.spline, start_full, None)
+        return time.perf_counter() - t0
 
     def plan_along(self, start_q: Any, spline: TipSpline, telescope: TelescopeProfile | None = None) -> PlanResult:
         """Stages 2-4 on a given tip path: the telescope profile, the timing and the verification.
@@ -1014,16 +1053,14 @@ class Planner:
             & ~self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded)
         )
 
-    def _clearances(self, q: np.ndarray) -> np.ndarray:
+    def _clearances(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The two clearances of :meth:`_config_valid` (m): the arm's beyond ``arm_clearance_m`` and the
-        grapple's (and log's) beyond ``clearance_m``; both >= 0 where the configuration is clear."""
+        grapple's (and log's) beyond ``clearance_m``, both >= 0 where the configuration is clear; and their
+        gradients (2, 4) (m/rad, m/m) from the closest points (:meth:`CollisionChecker.distance_and_gradient`)."""
         loaded = self.options.loaded
-        return np.array(
-            [
-                self._arm_checker.distance(q, loaded).distance,
-                self._path_checker.tip_clearance(self.crane.fk(q), loaded),
-            ]
-        )
+        arm, arm_gradient = self._arm_checker.distance_and_gradient(q, loaded)
+        tip, tip_gradient = self._path_checker.configuration_tip_clearance_and_gradient(q, loaded)
+        return np.array([arm, tip]), np.array([arm_gradient, tip_gradient])
 
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Joint paths to up to ``goal_telescopes`` goal configurations (:meth:`_goal_configurations`, searched in

@@ -28,7 +28,6 @@ import time
 from dataclasses import dataclass, field
 from enum import Enum
 from functools import lru_cache
-from types import SimpleNamespace
 from typing import Any, Protocol
 
 import casadi as ca
@@ -39,18 +38,8 @@ from ..checks import check_scalar
 from ..model.crane_model import CraneModel
 from ..model.kinematics import Crane
 from ..model.limits import braking_margin, limits_for
+from ..model.symbolic import CASADI_OPS
 from .phase_plane import phase_plane_time
-
-# CasADi counterparts of the numpy functions used by Crane.planar_ik/planar_fk.
-# acos is written through atan2 so that IPOPT's trial points just outside the
-# reachable set give finite values instead of NaN.
-CASADI_OPS = SimpleNamespace(
-    sin=ca.sin,
-    cos=ca.cos,
-    atan2=ca.atan2,
-    sqrt=ca.sqrt,
-    acos=lambda c: ca.atan2(ca.sqrt(ca.fmax(1.0 - c * c, 1e-12)), c),
-)
 
 
 class RedundancyStatus(Enum):

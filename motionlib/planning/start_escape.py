@@ -85,6 +85,14 @@ class EscapeChecker:
         """:meth:`CollisionChecker.distance` (beyond the margin that applies at ``q``'s tip)."""
         return self._for_q(q).distance(q, loaded)
 
+    def distance_and_gradient(self, q: Any, loaded: bool = False) -> tuple[float, np.ndarray]:
+        """:meth:`CollisionChecker.distance_and_gradient` (beyond the margin that applies at ``q``'s tip)."""
+        return self._for_q(q).distance_and_gradient(q, loaded)
+
+    def configuration_tip_clearance_and_gradient(self, q: Any, loaded: bool = False) -> tuple[float, np.ndarray]:
+        """:meth:`CollisionChecker.configuration_tip_clearance_and_gradient` (beyond the margin at ``q``'s tip)."""
+        return self._for_q(q).configuration_tip_clearance_and_gradient(q, loaded)
+
     def tip_clearance(self, p_tip: Any, loaded: bool = False) -> float:
         """:meth:`CollisionChecker.tip_clearance` (m, beyond the margin that applies at ``p_tip``)."""
         return self._for_tip(p_tip).tip_clearance(p_tip, loaded)

@@ -66,8 +66,6 @@ CLEARANCE_MARGIN_M = 0.01
 ACTIVE_BELOW_M = 0.3
 #: Value (m) of an inactive clearance row.
 INACTIVE_VALUE_M = 1e3
-#: Forward-difference step of the clearance gradients (rad, m).
-GRADIENT_STEP = 1e-3
 #: Solves of the sequential convexification and its first trust region (s of motion at the velocity limits).
 SCP_ITERATIONS = 3
 TRUST_REGION_S = 0.3
@@ -263,21 +261,21 @@ class Linearisation:
         return cls(np.zeros((m, 4)), np.full((m, N_CLEARANCES), INACTIVE_VALUE_M), np.zeros((m, 4 * N_CLEARANCES)))
 
     @classmethod
-    def at(cls, motion: TrajoptResult, clearance: Callable[[np.ndarray], np.ndarray]) -> Linearisation:
-        """Clearances of ``motion`` at its knots and midpoints, with forward-difference gradients where
-        the smallest is below :data:`ACTIVE_BELOW_M`."""
+    def at(
+        cls, motion: TrajoptResult, clearance: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    ) -> Linearisation:
+        """Clearances of ``motion`` at its knots and midpoints, with their gradients where the smallest is below
+        :data:`ACTIVE_BELOW_M` (``clearance(q)`` gives both: values (N_CLEARANCES,) and gradients
+        (N_CLEARANCES, 4))."""
         q = motion.polyline(2)
         value = np.full((len(q), N_CLEARANCES), INACTIVE_VALUE_M)
         gradient = np.zeros((len(q), 4 * N_CLEARANCES))
         for k, qk in enumerate(q):
-            c = np.asarray(clearance(qk), dtype=np.float64)
+            c, g = clearance(qk)
             if c.min() >= ACTIVE_BELOW_M:
                 continue
             value[k] = c - CLEARANCE_MARGIN_M
-            for i in range(4):
-                dq = np.zeros(4)
-                dq[i] = GRADIENT_STEP
-                gradient[k, i::4] = (np.asarray(clearance(qk + dq)) - c) / GRADIENT_STEP
+            gradient[k] = np.asarray(g, dtype=np.float64).ravel()
         return cls(q, value, gradient)
 
 
@@ -379,7 +377,7 @@ def fastest_valid_trajectory(
     crane: Crane,
     q_wp: np.ndarray,
     all_valid: Callable[[np.ndarray], bool],
-    clearance: Callable[[np.ndarray], np.ndarray] | None,
+    clearance: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None,
     resolution_s: float,
     duration_guess_s: float | None = None,
     limit_margin: np.ndarray | None = None,
@@ -403,8 +401,8 @@ def fastest_valid_trajectory(
     Parameters
     ----------
     clearance : callable or None
-        ``clearance(q)`` (4,) -> (N_CLEARANCES,) m, all >= 0 where ``q`` is clear of the scene;
-        None skips step 2.
+        ``clearance(q)`` (4,) -> values (N_CLEARANCES,) m, all >= 0 where ``q`` is clear of the scene, and
+        their gradients (N_CLEARANCES, 4) (m/rad, m/m); None skips step 2.
     limit_margin : ndarray, shape (4,), optional
         See :func:`optimise_trajectory`.
     """

@@ -170,9 +170,9 @@ def test_jointspace_baseline_uses_the_planner_limits_and_verifier(lab, lab_scene
     seen = {}
     real_baseline, real_time_scale = jointspace.jointspace_baseline, jointspace.time_scale
 
-    def spy_baseline(crane, paths, attempts, verifier, dt):
+    def spy_baseline(crane, paths, attempts, verifier, dt, **kw):
         seen["baseline"] = (attempts, verifier)
-        return real_baseline(crane, paths, attempts, verifier, dt)
+        return real_baseline(crane, paths, attempts, verifier, dt, **kw)
 
     def spy_time_scale(s, q, limits, dt=1 / 200, **kw):
         seen.setdefault("time_scale", []).append(limits)
@@ -188,6 +188,35 @@ def test_jointspace_baseline_uses_the_planner_limits_and_verifier(lab, lab_scene
     assert all(a is b for a, b in zip(verifier.limits, p.limits, strict=True))
     assert seen["time_scale"] and all(lim is p.limits for lim in seen["time_scale"])
     assert res.baselines["jointspace"] is not None  # timed and verified
+
+
+def test_library_defaults_plan_the_same_motion_with_fewer_reports(lab, lab_scene):
+    """The library's planner defaults (``LIBRARY_PLANNER_DEFAULTS``: the joint-space baseline not verified, the
+    tip-space path only as a fallback) against :func:`plan`'s defaults on a query a joint candidate wins.
+
+    Reference: the default plan of the same query and seed: identical samples (the joint candidates are ordered by
+    their first timing alone, which both compute), the baseline NaN and the tip path's stage skipped. With no joint
+    candidates at all, the fallback searches the tip path and plans with it.
+    """
+    from motionlib.library.spec import plan_options
+    from motionlib.planning.planner import TIP_SKIPPED_REASON, TIP_SOURCE
+
+    start, goal = lab_scene.start("target-center"), lab_scene.point("pickup-a")
+    full = Planner(lab, lab_scene, PlanOptions(seed=3)).plan(start, goal).raise_for_status()
+    lean_options = plan_options({}, seed=3)
+    assert not lean_options.jointspace_baseline and not lean_options.tip_path_always
+    lean = Planner(lab, lab_scene, lean_options).plan(start, goal).raise_for_status()
+    assert full.trajectory.info.path_source != TIP_SOURCE  # the query the comparison needs
+    np.testing.assert_array_equal(lean.trajectory.q, full.trajectory.q)
+    np.testing.assert_array_equal(lean.trajectory.t, full.trajectory.t)
+    assert math.isfinite(full.trajectory.info.baseline_jointspace_s)
+    assert math.isnan(lean.trajectory.info.baseline_jointspace_s) and lean.baselines["jointspace"] is None
+    assert lean.stages["path"].status == "skipped" and lean.stages["path"].details["reason"] == TIP_SKIPPED_REASON
+    assert TIP_SOURCE not in lean.stages["candidates"].details["sources"]
+
+    tip_only = Planner(lab, lab_scene, dataclasses.replace(lean_options, joint_candidates=False)).plan(start, goal)
+    assert tip_only.ok and tip_only.trajectory.info.path_source == TIP_SOURCE
+    assert tip_only.stages["path"].status == "ok"
 
 
 def test_optimised_profile_beats_baselines_on_velocity_limited_time(results):

@@ -94,6 +94,24 @@ def test_planner_options_mapped(tmp_path):
     assert (opts.redundancy.degree, opts.redundancy.max_iter) == (4, 50)
 
 
+def test_library_planner_defaults_apply_unless_the_spec_sets_them(tmp_path):
+    """A library plans without the joint-space baseline's verification and with the tip-space path as a fallback
+    (``LIBRARY_PLANNER_DEFAULTS``, where ``PlanOptions`` has True); a spec's ``planner`` mapping overrides them,
+    as booleans only."""
+    from motionlib.planning.planner import PlanOptions
+
+    assert PlanOptions().jointspace_baseline and PlanOptions().tip_path_always
+    opts = LibrarySpec.load(_spec(tmp_path, _base(), "a.yaml")).plan_options()
+    assert (opts.jointspace_baseline, opts.tip_path_always) == (False, False)
+    data = _base()
+    data["planner"] = {"jointspace_baseline": True}
+    opts = LibrarySpec.load(_spec(tmp_path, data, "b.yaml")).plan_options()
+    assert (opts.jointspace_baseline, opts.tip_path_always) == (True, False)
+    data["planner"] = {"tip_path_always": "yes"}
+    with pytest.raises(ModelFileError, match=r"tip_path_always: expected"):
+        LibrarySpec.load(_spec(tmp_path, data, "c.yaml"))
+
+
 def test_digest_changes_with_content_only(tmp_path):
     d1 = LibrarySpec.load(_spec(tmp_path, _base(), "a.yaml")).digest
     assert LibrarySpec.load(_spec(tmp_path, {**_base(), "description": "other words"}, "b.yaml")).digest == d1
