@@ -166,12 +166,10 @@ def main() -> None:
     new, old, base, manual = [], [], [], []
     before = replace(controller, swing_damping_deadband_rad=0.0)
     t0 = time.perf_counter()
-    library_planned = []
     for row in rows.tolist():
         traj = retimed(lib, row, jerk_box_s=box) if box else None
         o = run_row(lib, row, swing_tol, controller, traj=traj, sim=sim)
         new.append(o)
-        library_planned.append(lib.trajectory(row).duration_s)
         line = (f"{row:5d} {o.planned_s:9.2f} {o.settle_s:8.2f} {o.ratio:6.2f} {o.overshoot_m:11.3f} "
                 f"{o.swing_rad:9.3f} {'yes' if o.settled else 'NO':>7}")
         if args.baseline:
@@ -191,6 +189,7 @@ def main() -> None:
     _print_totals("swing-settled", new)
     if box:
         settle, planned = np.array([o.settle_s for o in new]), np.array([o.planned_s for o in new])
+        library_planned = lib.duration_s[rows]  # the index's durations: each row's t[-1]
         print(f"re-timed plans / library plans median {np.median(planned / library_planned):.3f}; settle time / "
               f"library plan median {np.median(settle / library_planned):.3f}")
     if old:

@@ -252,10 +252,12 @@ def jointspace_baseline(
     limits, min_grid = attempts[0]
     first = {name: time_scale(s, q, limits, dt=dt, min_gridpoints=min_grid) for name, (s, q) in prepared.items()}
     durations = {name: r.duration_s for name, r in first.items()}
+    if not verify:
+        return JointSpaceBaseline(math.nan, durations, {})
     timed = [name for name, r in first.items() if r.ok]
     verified: dict[str, bool] = {}
     best: TimingResult | None = None
-    for name in sorted(timed, key=lambda k: durations[k]) if verify else []:
+    for name in sorted(timed, key=lambda k: durations[k]):
         if best is not None and best.duration_s <= durations[name]:  # re-timing only slows a path down
             break
         timing, report, _ = time_and_verify(*prepared[name], attempts, verifier, dt, first=first[name])

@@ -265,7 +265,7 @@ class PlanOptions:
         Search the tip-space path (the ``tip-rrt`` candidate, and the constant and linear telescope baselines on
         it) on every query. False: only when the joint candidates give no plan, then with all candidates. Library
         builds default to False: on the planning benchmark's 48 queries and the 209 entries of the log-loading
-        library a joint candidate won every time (the same 48 trajectories at 0.73x the compute, with the
+        library a joint candidate won every time (the same 48 trajectories at 0.72x the compute, with the
         baseline not verified); on 100 random queries (``benchmarks/plan.py --random 50``) the tip path won 2,
         which then take 8 % and 15 % longer (mean duration +0.23 %).
     goal_log_yaw : float or None

@@ -135,8 +135,8 @@ def test_on_the_per_joint_plant_the_slowest_joints_jerk_box_settles_sooner(lab):
     bounds (settle / planned <= 1.35, tip past the end point <= 5 cm), while the 0.4 s plan rings the slew and
     overshoots (docs/runtime.md, "Per-joint natural frequencies"). Settled is re-checked here from the log."""
     crane, scene = lab
-    options = ExecuteOptions(time_limit_s=40.0, sim=SimParams(natural_freq_hz=None), controller=ControllerParams(
-        joint_natural_freq_hz=None, swing_damping=PER_JOINT_SWING_DAMPING))
+    options = ExecuteOptions(time_limit_s=40.0).with_per_joint_stiffness()
+    assert options.controller.swing_damping == PER_JOINT_SWING_DAMPING and options.sim.natural_freq_hz is None
     box = crane.model.slowest_joint_period_s()
     runs = {}
     for jerk_box in (0.4, box):

@@ -421,8 +421,9 @@ def test_clearance_gradients_match_central_differences(shipped_checkers, sample_
     for q in sample_q(crane, 3000, seed=8):
         for loaded in (False, True):
             queries = (
-                (checker.distance_and_gradient, lambda x: checker.distance(x, loaded).distance),
-                (checker.configuration_tip_clearance_and_gradient, lambda x: checker.tip_clearance(crane.fk(x), loaded)),
+                (checker.distance_and_gradient, lambda x, lo=loaded: checker.distance(x, lo).distance),
+                (checker.configuration_tip_clearance_and_gradient,
+                 lambda x, lo=loaded: checker.tip_clearance(crane.fk(x), lo)),
             )
             for with_gradient, value in queries:
                 d, grad = with_gradient(q, loaded)
