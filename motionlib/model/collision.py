@@ -59,6 +59,9 @@ _COLLIDE_REQUEST = fcl.CollisionRequest()
 _DISTANCE_REQUEST = fcl.DistanceRequest(enable_nearest_points=True, enable_signed_distance=True)
 #: Forward-difference step (rad, m) of a clearance gradient the closest points do not give.
 GRADIENT_STEP = 1e-3
+#: Longest piece (m) of a crane part in the vectorised screens against the obstacles: a piece's distance bound is
+#: at most half its length below the true distance (``CollisionChecker._segments_near_obstacles``).
+SCREEN_PIECE_M = 0.25
 
 Point = tuple[float, float, float]
 
@@ -216,6 +219,10 @@ class CollisionChecker:
         boxes = np.array([o.aabb() for o in self._obstacles]).reshape(-1, 2, 3)
         self._obstacle_lo = boxes[:, 0, :]
         self._obstacle_hi = boxes[:, 1, :]
+        oriented = [o.oriented_box() for o in self._obstacles]
+        self._box_rotation = np.array([r for r, _, _ in oriented]).reshape(-1, 3, 3)
+        self._box_centre = np.array([c for _, c, _ in oriented]).reshape(-1, 3)
+        self._box_half = np.array([h for _, _, h in oriented]).reshape(-1, 3)
         self._scene_manager = fcl.DynamicAABBTreeCollisionManager()
         self._scene_manager.registerObjects(self._obstacle_objects)
         self._scene_manager.setup()
@@ -422,37 +429,44 @@ class CollisionChecker:
                         return out
         return out
 
-    def _batch_screen(self, qs: np.ndarray, loaded: bool) -> tuple[np.ndarray, np.ndarray]:
+    def _batch_screen(
+        self, qs: np.ndarray, loaded: bool, pad: float = 0.0, refine: bool = False
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Vectorised ground test (exact) and bounding-box screen for (n, 4) configurations.
 
-        Returns ``hit`` (n,): touches the ground; ``maybe`` (n,): some crane part's
-        box overlaps an obstacle's box, or a hanging part's box overlaps the
-        column's or the boom's, so fcl must decide.
+        Returns ``hit`` (n,): touches the ground; ``maybe`` (n,): some crane part may
+        touch an obstacle (:meth:`_segments_near_obstacles`), or a hanging part's box
+        overlaps the column's or the boom's, so fcl must decide. With ``pad`` (m) the
+        crane's parts grow by it: ``hit`` then says the ground is nearer than ``pad``,
+        ``maybe`` that a pair may be. ``refine``: see :meth:`_segments_near_obstacles`.
         """
-        pivot, jib_pivot, jib_end, tip = (
-            np.stack(np.broadcast_arrays(*p), axis=1)
-            for p in self._arm_points(qs[:, 0], qs[:, 1], qs[:, 2], qs[:, 3], _NUMPY_OPS)
-        )
+        pivot, jib_pivot, jib_end, tip = self._arm_point_arrays(qs)
         segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
         yaw = self.crane.log_yaw(qs) if qs.shape[1] == 5 else None  # the log along its yaw q1 + q5
-        hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded, yaw)
+        hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded, yaw, pad, refine)
         boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
         boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
         for lo, hi in hanging_boxes:
             maybe |= np.all((lo <= boom_hi) & (hi >= boom_lo), axis=1)
         for part, a, b in segments:
-            lo = np.minimum(a, b) - part.radius
-            hi = np.maximum(a, b) + part.radius
-            hit |= lo[:, 2] < self._ground_z
-            maybe |= self._boxes_touch_obstacles(lo, hi)
+            hit |= np.minimum(a[:, 2], b[:, 2]) - (part.radius + pad) < self._ground_z
+            maybe |= self._segments_near_obstacles(a, b, part.radius + pad, refine)
         return hit, maybe
 
+    def _arm_point_arrays(self, qs: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:meth:`_arm_points` of configurations (n, 4+) as four arrays (n, 3) (m)."""
+        return tuple(
+            np.stack(np.broadcast_arrays(*p), axis=1)
+            for p in self._arm_points(qs[:, 0], qs[:, 1], qs[:, 2], qs[:, 3], _NUMPY_OPS)
+        )
+
     def _hanging_screen(
-        self, tip: np.ndarray, loaded: bool, yaw: np.ndarray | None = None
+        self, tip: np.ndarray, loaded: bool, yaw: np.ndarray | None = None, pad: float = 0.0, refine: bool = False
     ) -> tuple[np.ndarray, np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
         """Vectorised ground test (exact) and box screen of the hanging parts at tips (n, 3) against the
-        obstacles and the column; also returns the parts' boxes (lower, upper corners (n, 3)). The log
-        lies along ``yaw`` (n,) (rad) when given, else along the tips' headings."""
+        obstacles and the column; also returns the parts' boxes (lower, upper corners (n, 3)), grown by ``pad``
+        (m) as in :meth:`_batch_screen` (and ``refine`` as there). The log lies along ``yaw`` (n,) (rad) when given,
+        else along the tips' headings."""
         ux, uy = self._heading_batch(tip) if yaw is None else (np.cos(yaw), np.sin(yaw))
         col_a, col_b = self._column_segment
         col_lo = np.minimum(col_a, col_b) - self._column_radius
@@ -462,20 +476,86 @@ class CollisionChecker:
         boxes = []
         for part in self._hanging[loaded]:
             a, b = (np.stack(e, axis=1) for e in self._hang(part, tip[:, 0], tip[:, 1], tip[:, 2], ux, uy))
-            lo = np.minimum(a, b) - part.radius
-            hi = np.maximum(a, b) + part.radius
+            lo = np.minimum(a, b) - (part.radius + pad)
+            hi = np.maximum(a, b) + (part.radius + pad)
             boxes.append((lo, hi))
             hit |= lo[:, 2] < self._ground_z
-            maybe |= self._boxes_touch_obstacles(lo, hi)
+            maybe |= self._segments_near_obstacles(a, b, part.radius + pad, refine)
             maybe |= np.all((lo <= col_hi) & (hi >= col_lo), axis=1)
         return hit, maybe, boxes
 
-    def _boxes_touch_obstacles(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Whether each box (lower, upper corners (n, 3)) overlaps some obstacle's box (n,)."""
+    def configurations_clear_by(
+        self, q: Any, distance_m: float, loaded: bool = False, refine: bool = True
+    ) -> np.ndarray:
+        """Which configurations distance bounds prove at least ``distance_m`` (m) clear.
+
+        Parameters
+        ----------
+        q : array_like, shape (n, 4)
+            Configurations (rad, rad, rad, m).
+        distance_m : float
+            Clearance (m, >= 0) to prove.
+        loaded : bool
+            A log is carried.
+        refine : bool
+            Where a part's box misses no obstacle's, bound its distance piece by piece
+            (:meth:`_segments_near_obstacles`): proves more, costs more.
+
+        Returns
+        -------
+        ndarray of bool, shape (n,)
+            True where :meth:`distance` is at least ``distance_m``: every crane part is that far above the ground
+            and from the obstacles' oriented boxes, and the boxes of the hanging parts grown by it miss the
+            column's and the boom's. False says nothing. Exact in real arithmetic: fcl's own distances carry its
+            tolerance (:class:`DistanceResult`).
+        """
+        qs = check_points(q, "q", dim=4)
+        if self.column_blocked:
+            return np.zeros(len(qs), dtype=bool)
+        pad = check_scalar(distance_m, "distance_m", ge=0.0)
+        hit, maybe = self._batch_screen(qs, bool(loaded), pad, bool(refine))
+        return ~(hit | maybe)
+
+    def configurations_tip_clear_by(
+        self, q: Any, distance_m: float, loaded: bool = False, refine: bool = True
+    ) -> np.ndarray:
+        """:meth:`configurations_clear_by` for the grapple (and log) alone at the configurations' tips (the log along
+        the tip's heading): True where :meth:`tip_clearance` there is at least ``distance_m`` (m)."""
+        qs = check_points(q, "q", dim=4)
+        tip = self._arm_point_arrays(qs)[3]
+        pad = check_scalar(distance_m, "distance_m", ge=0.0)
+        hit, maybe, _ = self._hanging_screen(tip, bool(loaded), None, pad, bool(refine))
+        return ~(hit | maybe)
+
+    def _segments_near_obstacles(self, a: np.ndarray, b: np.ndarray, reach: float, refine: bool) -> np.ndarray:
+        """Whether each segment ``a``-``b`` (n, 3) (m) may come within ``reach`` (m) of an obstacle (n,) bool.
+
+        Bounds to the obstacles' :meth:`~.scene.Obstacle.oriented_box`: the segment's box in the obstacle's frame
+        grown by ``reach`` misses it; or, with ``refine`` and for the segments that fails for, the distances at the
+        ends of pieces at most :data:`SCREEN_PIECE_M` long, in closed form: the distance to a box is 1-Lipschitz, so
+        a piece of length ``l`` with end distances ``d_0``, ``d_1`` comes no nearer than ``(d_0 + d_1 - l) / 2``.
+        False proves the segment farther than ``reach`` from every obstacle.
+        """
         if not self._obstacles:
-            return np.zeros(lo.shape[0], dtype=bool)
-        overlap: np.ndarray = (lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None])
-        return np.any(np.all(overlap, axis=2), axis=1)
+            return np.zeros(a.shape[0], dtype=bool)
+        # the ends in each obstacle's frame, R^T (p - c): (n, obstacles, 3)
+        a_local = np.einsum("njk,jkl->njl", a[:, None, :] - self._box_centre[None], self._box_rotation)
+        b_local = np.einsum("njk,jkl->njl", b[:, None, :] - self._box_centre[None], self._box_rotation)
+        half = self._box_half[None]
+        boxes_meet = (np.minimum(a_local, b_local) - reach <= half) & (np.maximum(a_local, b_local) + reach >= -half)
+        near = np.any(np.all(boxes_meet, axis=2), axis=1)
+        rows = np.flatnonzero(near) if refine else np.zeros(0, dtype=int)
+        if rows.size:
+            a_local, b_local = a_local[rows], b_local[rows]
+            length = np.sqrt(np.sum((b[rows] - a[rows]) ** 2, axis=1))
+            pieces = max(1, math.ceil(float(length.max()) / SCREEN_PIECE_M))
+            t = np.linspace(0.0, 1.0, pieces + 1)[None, None, :, None]
+            ends = a_local[:, :, None, :] + t * (b_local - a_local)[:, :, None, :]  # (rows, obstacles, pieces + 1, 3)
+            gap = np.maximum(np.abs(ends) - half[:, :, None, :], 0.0)
+            d = np.sqrt(np.sum(gap * gap, axis=3))
+            nearest = 0.5 * (d[:, :, :-1] + d[:, :, 1:] - (length / pieces)[:, None, None])
+            near[rows] = np.any(nearest <= reach, axis=(1, 2))
+        return near
 
     def tips_in_collision(self, p_tip: Any, loaded: bool = False, yaw: np.ndarray | None = None) -> np.ndarray:
         """:meth:`tip_in_collision` for many tip points (n, 3) (m) -> (n,) bool, with the log's yaws ``yaw`` (n,)

@@ -151,6 +151,26 @@ class Obstacle:
                 half = axis * h + radius
         return np.stack([centre - half, centre + half])
 
+    def oriented_box(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The smallest box in the obstacle's own frame that holds it: rotation (3, 3), centre (3,) (m, base frame)
+        and half extents (3,) (m, along the rotation's columns).
+
+        A box is itself; a sphere, cylinder or capsule (axis along local z) spans ``r`` across and ``h`` (cylinder)
+        or ``h + r`` (capsule) along the axis; a mesh, the box of its vertices in its frame.
+        """
+        rot = self.rotation()
+        centre = np.asarray(self.xyz, dtype=np.float64)
+        radius, h = self.r, self.half_length
+        if self.shape == "mesh":
+            vertices = self.mesh_arrays[0]
+            lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+            return rot, centre + rot @ ((lo + hi) / 2.0), (hi - lo) / 2.0
+        half = {"box": np.asarray(self.size or (0.0, 0.0, 0.0), dtype=np.float64) / 2.0,
+                "sphere": np.full(3, radius),
+                "cylinder": np.array([radius, radius, h]),
+                "capsule": np.array([radius, radius, h + radius])}[self.shape]
+        return rot, centre, half
+
     def to_dict(self) -> dict[str, Any]:
         """Plain-data form, as written in a scene file."""
         out: dict[str, Any] = {"name": self.name, "shape": self.shape, "xyz": list(self.xyz), "rpy": list(self.rpy)}

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..model.kinematics import Crane
 from ..model.limits import Limit
-from .path import solve_ompl
+from .path import SCREENED_PLANNERS, solve_ompl
 from .timing import TimingResult, time_scale
 from .verification import Verifier, time_and_verify
 
@@ -134,12 +134,16 @@ def plan_joint_path(
     options: JointPathOptions = JointPathOptions(),
     seed: int = 0,
     all_valid: Callable[[np.ndarray], bool] | None = None,
+    surely_valid: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> JointPathResult:
     """A valid joint polyline from ``start_q`` to ``goal_q`` (4,): the straight line if valid, else OMPL's.
 
     ``is_valid(q)`` says whether a configuration (4,) may be visited (the start is assumed valid);
     ``all_valid(qs)``, when given, says it for all configurations of ``qs`` (n, 4) at once (the
-    same rule, batched) and checks the straight line.
+    same rule, batched) and checks the straight line. ``surely_valid(qs)`` (n,) bool, when given, is a
+    vectorised screen that proves some configurations valid (False says nothing): the search's motions skip
+    ``is_valid`` there and are otherwise checked as before, with the same answers and budget
+    (``solve_ompl``; :data:`~motionlib.planning.path.SCREENED_PLANNERS` with ``shortcut_only``).
     """
     scale = time_scales(crane)
     empty = np.zeros((0, 4))
@@ -155,6 +159,7 @@ def plan_joint_path(
     if line_valid:
         return JointPathResult(JointPathStatus.OK, "", np.stack([start_q, goal_q]), "line")
     diag: dict[str, Any] = {}
+    screen = surely_valid if options.planner in SCREENED_PLANNERS and options.shortcut_only else None
     waypoints, status = solve_ompl(
         start_q / scale,
         goal_q / scale,
@@ -169,6 +174,7 @@ def plan_joint_path(
         simplify=True,
         diag=diag,
         shortcut_only=options.shortcut_only,
+        surely_valid=None if screen is None else (lambda xs: screen(xs * scale)),
     )
     if waypoints is None:
         return JointPathResult(

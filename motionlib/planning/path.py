@@ -35,7 +35,9 @@ how many iterations fit into it, so the seed alone does not fix their path.
 
 from __future__ import annotations
 
+import collections
 import enum
+import functools
 import math
 import threading
 import time
@@ -56,6 +58,16 @@ from .spline import TipSpline
 REPAIR_MIN_SEPARATION_M = 1e-4
 
 _OMPL_LOCK = threading.Lock()
+#: States of a motion screened first, and the growth of each next batch (:class:`_ScreenedMotionValidator`).
+SCREEN_FIRST = 8
+SCREEN_GROWTH = 4
+#: A search screens its motions while the screens prove at least this fraction of their states valid, after the
+#: first ``SCREEN_WARMUP`` states (:class:`_ScreenedMotionValidator`).
+SCREEN_MIN_SURE = 0.9
+SCREEN_WARMUP = 64
+#: The planners whose searches and shortcuts check motions between two states only, as the screened validator
+#: does (with ``shortcut_only``; ``plan_joint_path`` screens no other search).
+SCREENED_PLANNERS = frozenset({"RRTConnect"})
 #: Default search budget of the tip-space path (state-validity checks).
 DEFAULT_PATH_CHECKS = 10_000
 _OMPL_SEED_MAX = 2**32 - 2  # OMPL seeds are uint32 and must be > 0: OMPL seed = seed + 1
@@ -314,6 +326,72 @@ def _ompl_plan(
     )
 
 
+@functools.lru_cache(maxsize=1024)
+def _bisection_order(nd: int) -> np.ndarray:
+    """The interior points ``1 .. nd - 1`` of a motion in the order OMPL's ``DiscreteMotionValidator`` checks
+    them: the middles of ``[1, nd - 1]``, breadth first."""
+    order, pending = [], collections.deque([(1, nd - 1)])
+    while pending:
+        lo, hi = pending.popleft()
+        mid = (lo + hi) // 2
+        order.append(mid)
+        if lo < mid:
+            pending.append((lo, mid - 1))
+        if hi > mid:
+            pending.append((mid + 1, hi))
+    return np.array(order, dtype=np.int64)
+
+
+class _ScreenedMotionValidator(ob.MotionValidator):
+    """OMPL's ``DiscreteMotionValidator`` with a vectorised screen.
+
+    The same states in the same order (the end state, then :func:`_bisection_order` of OMPL's
+    ``validSegmentCount``, each state interpolated as OMPL's ``RealVectorStateSpace`` does), the same answers and
+    the same count of validity checks, so the search and its budget are unchanged; a state the screen
+    ``surely_valid`` (n, d) -> (n,) bool proves valid costs no call of the validity checker. The states of a motion
+    are screened in batches along the order (:data:`SCREEN_FIRST`, growing by :data:`SCREEN_GROWTH`), so a motion
+    found invalid early screens few; and a search whose screens prove less than :data:`SCREEN_MIN_SURE` of their
+    states (after :data:`SCREEN_WARMUP` of them) stops screening.
+    """
+
+    def __init__(self, si: Any, space: Any, dim: int, counted_valid: Callable[[np.ndarray | None], bool],
+                 surely_valid: Callable[[np.ndarray], np.ndarray]):
+        super().__init__(si)
+        self._space, self._dim, self._valid, self._sure = space, dim, counted_valid, surely_valid
+        self._screened = self._proved = 0
+
+    def _screening(self) -> bool:
+        return self._screened < SCREEN_WARMUP or self._proved >= SCREEN_MIN_SURE * self._screened
+
+    def checkMotion(self, s1: Any, s2: Any, *last_valid: Any) -> bool:  # noqa: N802 (OMPL's name)
+        if last_valid:  # the variant that reports the last valid state: none of SCREENED_PLANNERS calls it
+            raise NotImplementedError("the screened motion validator checks motions between two states only")
+        dim = self._dim
+        if not self._valid(np.array(s2[0:dim])):
+            return False
+        nd = int(self._space.validSegmentCount(s1, s2))
+        if nd < 2:
+            return True
+        a, b = np.array(s1[0:dim]), np.array(s2[0:dim])
+        order = _bisection_order(nd)
+        done, size = 0, SCREEN_FIRST
+        while done < order.size:
+            points = order[done : done + size]
+            states = a + (b - a) * (points / nd)[:, None]
+            if self._screening():
+                sure = self._sure(states).tolist()
+                self._screened += len(sure)
+                self._proved += sum(sure)
+            else:
+                sure = [False] * len(states)
+            for state, proved in zip(states, sure, strict=True):
+                if not self._valid(None if proved else state):
+                    return False
+            done += points.size
+            size *= SCREEN_GROWTH
+        return True
+
+
 def solve_ompl(
     start: np.ndarray,
     goal: np.ndarray,
@@ -329,6 +407,7 @@ def solve_ompl(
     simplify: bool,
     diag: dict[str, Any],
     shortcut_only: bool = False,
+    surely_valid: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> tuple[np.ndarray | None, str]:
     """Plan a polyline from ``start`` to ``goal`` (d,) in the box ``[lower, upper]`` (d,) with OMPL.
 
@@ -339,7 +418,9 @@ def solve_ompl(
     ``shortcut_only`` by the path simplifier's ``reduceVertices`` and ``ropeShortcutPath`` alone (no
     B-spline smoothing, which is most of the cost when validity checks are expensive). Fills
     ``planning_time_s``, ``simplify_time_s``, ``n_search_checks``, ``n_raw_waypoints``,
-    ``n_waypoints`` of ``diag``.
+    ``n_waypoints`` of ``diag``. With ``surely_valid`` (n, d) -> (n,) bool, a vectorised screen that proves
+    some states valid, motions are checked by :class:`_ScreenedMotionValidator`: the same states, answers and
+    count of checks as OMPL's own validator, without calling ``is_valid`` where the screen proves them.
 
     The search's budget is deterministic: it stops after ``max_checks`` state-validity checks
     (the checker ends an OMPL termination condition when they are spent), so the same inputs
@@ -367,12 +448,16 @@ def solve_ompl(
     # while solve holds the GIL, and deadlock. The budget is ended from the validity checker.
     budget = ob.plannerNonTerminatingCondition()
 
-    def ompl_valid(state: Any) -> bool:
+    def counted_valid(x: np.ndarray | None) -> bool:
+        """One validity check of the budget: of state ``x`` (d,), or of one the screen proved valid (None)."""
         checks[0] += 1
         if checks[0] >= max_checks:
             budget.terminate()
+        return True if x is None else bool(is_valid(x))
+
+    def ompl_valid(state: Any) -> bool:
         # nanobind converts only a Python bool back to C++ bool (np.bool_ gives std::bad_cast)
-        return bool(is_valid(np.array(state[0:dim])))
+        return counted_valid(np.array(state[0:dim]))
 
     with _OMPL_LOCK:
         previous_level = ou.getLogLevel()
@@ -392,6 +477,8 @@ def solve_ompl(
             setup.setStateValidityChecker(ompl_valid)
             si = setup.getSpaceInformation()
             si.setStateValidityCheckingResolution(min(1.0, resolution / space.getMaximumExtent()))
+            if surely_valid is not None:
+                si.setMotionValidator(_ScreenedMotionValidator(si, space, dim, counted_valid, surely_valid))
             s_state, g_state = space.allocState(), space.allocState()
             s_state[0:dim] = start.tolist()
             g_state[0:dim] = goal.tolist()

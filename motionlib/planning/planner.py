@@ -180,6 +180,11 @@ JOINT_SEARCHES_PER_GOAL = 2
 JOINT_RETRY_FACTOR = 5
 #: Arc-length step (m) of the grapple-clearance check of tip splines made from joint paths.
 JOINT_CANDIDATE_CHECK_STEP_M = 0.02
+#: What the bounding-box screen of the trajectory optimisation's clearances (:meth:`Planner._clearances`) proves
+#: beyond the clearance it skips (m): more than fcl's distance tolerance (a few 1e-5 m,
+#: :class:`~motionlib.model.collision.DistanceResult`), so fcl's clearances of a skipped point are above the
+#: threshold too, and the linearisation is unchanged.
+CLEARANCE_SCREEN_SLACK_M = 1e-3
 
 #: Times a swing-shaped motion over a limit is re-shaped with its base law stretched by the worst ratio.
 SHAPING_RESTRETCHES = 2
@@ -1053,14 +1058,32 @@ class Planner:
             & ~self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded)
         )
 
-    def _clearances(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The two clearances of :meth:`_config_valid` (m): the arm's beyond ``arm_clearance_m`` and the
-        grapple's (and log's) beyond ``clearance_m``, both >= 0 where the configuration is clear; and their
-        gradients (2, 4) (m/rad, m/m) from the closest points (:meth:`CollisionChecker.distance_and_gradient`)."""
+    def _surely_valid_configs(self, qs: np.ndarray) -> np.ndarray:
+        """Where bounding boxes prove :meth:`_config_valid` of configurations ``qs`` (n, 4) (n,) bool: within the
+        limits, both clearances at least :data:`CLEARANCE_SCREEN_SLACK_M` beyond the margins; False says nothing.
+        The boxes alone (no ``refine``): the joint-space searches screen short batches, where the pieces cost more
+        than the checks they save."""
         loaded = self.options.loaded
-        arm, arm_gradient = self._arm_checker.distance_and_gradient(q, loaded)
-        tip, tip_gradient = self._path_checker.configuration_tip_clearance_and_gradient(q, loaded)
-        return np.array([arm, tip]), np.array([arm_gradient, tip_gradient])
+        return (self.crane.within_limits(qs)
+                & self._arm_checker.configurations_clear_by(qs, CLEARANCE_SCREEN_SLACK_M, loaded, refine=False)
+                & self._path_checker.configurations_tip_clear_by(qs, CLEARANCE_SCREEN_SLACK_M, loaded, refine=False))
+
+    def _clearances(self, qs: np.ndarray, above_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """The two clearances of :meth:`_config_valid` (m) at configurations ``qs`` (n, 4): the arm's beyond
+        ``arm_clearance_m`` and the grapple's (and log's) beyond ``clearance_m``, both >= 0 where a configuration is
+        clear, (n, 2); and their gradients (n, 2, 4) (m/rad, m/m) from the closest points
+        (:meth:`CollisionChecker.distance_and_gradient`). Where bounding boxes prove both at least ``above_m`` (m)
+        plus :data:`CLEARANCE_SCREEN_SLACK_M`, they are inf with zero gradients (:data:`~.trajopt.Clearances`)."""
+        loaded = self.options.loaded
+        pad = above_m + CLEARANCE_SCREEN_SLACK_M
+        far = (self._arm_checker.configurations_clear_by(qs, pad, loaded)
+               & self._path_checker.configurations_tip_clear_by(qs, pad, loaded))
+        values = np.full((len(qs), 2), np.inf)
+        gradients = np.zeros((len(qs), 2, 4))
+        for i in np.flatnonzero(~far):
+            values[i, 0], gradients[i, 0] = self._arm_checker.distance_and_gradient(qs[i], loaded)
+            values[i, 1], gradients[i, 1] = self._path_checker.configuration_tip_clearance_and_gradient(qs[i], loaded)
+        return values, gradients
 
     def _joint_paths(self, start_q: np.ndarray, goal_p: np.ndarray) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         """Joint paths to up to ``goal_telescopes`` goal configurations (:meth:`_goal_configurations`, searched in
@@ -1080,7 +1103,7 @@ class Planner:
                     break
                 label = f"q4={q_goal[3]:.2f}" + ("" if abs(q_goal[0] - near) < math.pi else f"-q1={q_goal[0]:.2f}")
                 res = plan_joint_path(crane, start_q, q_goal, self._config_valid, options, o.seed,
-                                      self._configs_valid)
+                                      self._configs_valid, self._surely_valid_configs)
                 if res.ok:
                     paths[f"joint-{res.source}-{label}"] = res.waypoints
                 else:

@@ -108,3 +108,18 @@ class EscapeChecker:
         qs = np.asarray(q, dtype=float)
         return self._split(self._near(self.crane.fk_batch(qs[:, :4])),
                            lambda checker, rows: checker.configurations_in_collision(qs[rows], loaded))
+
+    def configurations_clear_by(self, q: Any, distance_m: float, loaded: bool = False, refine: bool = True
+                                ) -> np.ndarray:
+        """:meth:`CollisionChecker.configurations_clear_by` of the checker that applies at each configuration's tip."""
+        qs = np.asarray(q, dtype=float)
+        return self._split(self._near(self.crane.fk_batch(qs[:, :4])), lambda checker, rows:
+                           checker.configurations_clear_by(qs[rows], distance_m, loaded, refine))
+
+    def configurations_tip_clear_by(self, q: Any, distance_m: float, loaded: bool = False, refine: bool = True
+                                    ) -> np.ndarray:
+        """:meth:`CollisionChecker.configurations_tip_clear_by` of the checker that applies at each configuration's
+        tip."""
+        qs = np.asarray(q, dtype=float)
+        return self._split(self._near(self.crane.fk_batch(qs[:, :4])), lambda checker, rows:
+                           checker.configurations_tip_clear_by(qs[rows], distance_m, loaded, refine))

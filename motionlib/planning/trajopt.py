@@ -75,6 +75,10 @@ SCP_MIN_GAIN_S = 1e-3
 TUBE_OFF = 1e3
 #: Sub-samples per interval of the polyline handed on (exact positions of the piecewise-quadratic motion).
 SAMPLES_PER_INTERVAL = 4
+#: ``clearance(qs, above_m)``: the clearances (n, N_CLEARANCES) (m), all >= 0 where a configuration of ``qs``
+#: (n, 4) is clear of the scene, and their gradients (n, N_CLEARANCES, 4) (m/rad, m/m). A row whose clearances are
+#: all at least ``above_m`` (m) may be given as inf with zero gradients, without computing them.
+Clearances = Callable[[np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 
 
 class TrajoptStatus(enum.Enum):
@@ -261,21 +265,14 @@ class Linearisation:
         return cls(np.zeros((m, 4)), np.full((m, N_CLEARANCES), INACTIVE_VALUE_M), np.zeros((m, 4 * N_CLEARANCES)))
 
     @classmethod
-    def at(
-        cls, motion: TrajoptResult, clearance: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
-    ) -> Linearisation:
+    def at(cls, motion: TrajoptResult, clearance: Clearances) -> Linearisation:
         """Clearances of ``motion`` at its knots and midpoints, with their gradients where the smallest is below
-        :data:`ACTIVE_BELOW_M` (``clearance(q)`` gives both: values (N_CLEARANCES,) and gradients
-        (N_CLEARANCES, 4))."""
+        :data:`ACTIVE_BELOW_M` (``clearance``: see :data:`Clearances`)."""
         q = motion.polyline(2)
-        value = np.full((len(q), N_CLEARANCES), INACTIVE_VALUE_M)
-        gradient = np.zeros((len(q), 4 * N_CLEARANCES))
-        for k, qk in enumerate(q):
-            c, g = clearance(qk)
-            if c.min() >= ACTIVE_BELOW_M:
-                continue
-            value[k] = c - CLEARANCE_MARGIN_M
-            gradient[k] = np.asarray(g, dtype=np.float64).ravel()
+        c, g = clearance(q, ACTIVE_BELOW_M)
+        active = (c.min(axis=1) < ACTIVE_BELOW_M)[:, None]
+        value = np.where(active, c - CLEARANCE_MARGIN_M, INACTIVE_VALUE_M)
+        gradient = np.where(active, np.asarray(g, dtype=np.float64).reshape(len(q), 4 * N_CLEARANCES), 0.0)
         return cls(q, value, gradient)
 
 
@@ -377,7 +374,7 @@ def fastest_valid_trajectory(
     crane: Crane,
     q_wp: np.ndarray,
     all_valid: Callable[[np.ndarray], bool],
-    clearance: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]] | None,
+    clearance: Clearances | None,
     resolution_s: float,
     duration_guess_s: float | None = None,
     limit_margin: np.ndarray | None = None,
@@ -401,8 +398,7 @@ def fastest_valid_trajectory(
     Parameters
     ----------
     clearance : callable or None
-        ``clearance(q)`` (4,) -> values (N_CLEARANCES,) m, all >= 0 where ``q`` is clear of the scene, and
-        their gradients (N_CLEARANCES, 4) (m/rad, m/m); None skips step 2.
+        The clearances and their gradients at many configurations (:data:`Clearances`); None skips step 2.
     limit_margin : ndarray, shape (4,), optional
         See :func:`optimise_trajectory`.
     """

@@ -465,6 +465,27 @@ def test_distance_pruning_matches_brute_force(shipped_checkers, sample_q, scene_
     assert compared >= 20
 
 
+@pytest.mark.parametrize("scene_name", sorted(SHIPPED))
+def test_clear_by_screens_are_lower_bounds(shipped_checkers, sample_q, scene_name):
+    """configurations_clear_by / configurations_tip_clear_by (distance bounds to the obstacles' oriented boxes) only
+    claim what distance() / tip_clearance() confirm (to fcl's GJK tolerance), and they claim most of it 10 cm beyond:
+    the trajectory optimisation skips its exact clearances on their word."""
+    base = shipped_checkers[scene_name]
+    checker = CollisionChecker(base.crane, base.scene, margin=0.05)
+    crane = checker.crane
+    qs = sample_q(crane, 600, seed=10)
+    for loaded in (False, True):
+        arm = np.array([checker.distance(q, loaded).distance for q in qs])
+        tip = np.array([checker.tip_clearance(crane.fk(q), loaded) for q in qs])
+        for distance_m in (0.01, 0.3):
+            for claimed, exact in ((checker.configurations_clear_by(qs, distance_m, loaded), arm),
+                                   (checker.configurations_tip_clear_by(qs, distance_m, loaded), tip)):
+                assert np.all(exact[claimed] >= distance_m - 5e-5)
+                ample = exact >= distance_m + 0.1
+                assert ample.sum() >= 30 and claimed[ample].mean() >= 0.7
+    assert not checker.configurations_clear_by(qs, 1e3).any()  # nothing is a km clear
+
+
 def test_bad_inputs(lab):
     checker = CollisionChecker(lab, make_scene("lab"))
     with pytest.raises(InputError, match="q"):

@@ -425,6 +425,46 @@ def test_a_slow_machine_plans_the_same_path():
     assert fast.diagnostics["n_search_checks"] == slowed.diagnostics["n_search_checks"]
 
 
+def test_the_screened_motion_validator_checks_as_ompls_own():
+    """solve_ompl with a vectorised screen (``surely_valid``) gives OMPL's own answer: the same waypoints, the same
+    count of the search's validity checks (its budget) and the same status when the budget runs out, with
+    ``is_valid`` called only where the screen proves nothing (4-D, RRTConnect and its shortcuts, around a ball)."""
+    from motionlib.planning.path import solve_ompl
+
+    centre, radius = np.array([0.5, 0.0, 0.0, 0.2]), 0.6
+    calls = [0]
+
+    def is_valid(x: np.ndarray) -> bool:
+        calls[0] += 1
+        return bool(np.linalg.norm(x - centre) > radius)
+
+    def in_shell(x: np.ndarray) -> bool:  # the goal at the centre, enclosed: no solution
+        return is_valid(x) or bool(np.linalg.norm(x - centre) < radius - 0.2)
+
+    def beyond_ball(xs: np.ndarray) -> np.ndarray:  # a conservative screen: 0.2 beyond the ball
+        return np.linalg.norm(xs - centre, axis=1) > radius + 0.2
+
+    start, lower, upper = np.array([-1.0, 0.0, 0.0, 0.2]), np.full(4, -3.0), np.full(4, 3.0)
+    for valid, goal, max_checks, seed in ((is_valid, np.array([2.0, 0.1, 0.0, 0.2]), 5000, 0),
+                                          (is_valid, np.array([2.0, -0.2, 0.1, 0.3]), 5000, 1),
+                                          (in_shell, centre, 800, 2)):
+        runs = []
+        for screen in (None, beyond_ball):
+            calls[0] = 0
+            diag: dict = {}
+            waypoints, status = solve_ompl(start, goal, lower, upper, valid, planner="RRTConnect",
+                                           max_checks=max_checks, wall_cap_s=60.0, seed=seed, resolution=0.02,
+                                           simplify=True, diag=diag, shortcut_only=True, surely_valid=screen)
+            runs.append((waypoints, status, diag["n_search_checks"], calls[0]))
+        (plain, plain_status, plain_checks, plain_calls), (screened, status, checks, screened_calls) = runs
+        assert status == plain_status and checks == plain_checks
+        if plain is None:
+            assert screened is None and checks >= max_checks  # the budget ran out in both
+        else:
+            np.testing.assert_array_equal(screened, plain)
+        assert screened_calls < plain_calls
+
+
 def test_an_anytime_planner_spends_its_budget_deterministically():
     """RRT* improves its path until the budget of checks is spent: the same path twice, whatever the speed."""
     a = plan_tip_path([-2.0, 0.0, 1.0], [2.0, 0.0, 1.0], outside_sphere, opts(planner="RRTstar", max_checks=6000))

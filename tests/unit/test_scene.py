@@ -158,47 +158,63 @@ def test_forwarder_site_paths_bunk_to_piles(shipped):
 
 
 # ---------------------------------------------------------------- the data model
-def test_obstacle_aabb_contains_and_touches_surface_samples():
-    """AABB of rotated primitives and a mesh vs dense samples of their surfaces (brute force)."""
-    rng = np.random.default_rng(0)
+def _surface_samples(shape: str, kw: dict, rng: np.random.Generator) -> np.ndarray:
+    """Points (n, 3) on the surface of a primitive in its own frame (m), its extreme points among them."""
     u = rng.uniform(0, 2 * np.pi, 4000)
     v = rng.uniform(-1, 1, 4000)
     circle = np.stack([np.cos(u), np.sin(u)], 1)
-    for shape, kw in [
+    if shape == "box":
+        local = rng.uniform(-1, 1, (4000, 3))
+        face = rng.integers(0, 3, 4000)
+        local[np.arange(4000), face] = np.sign(local[np.arange(4000), face])
+        local *= np.array(kw["size"]) / 2
+        corners = np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * 0.5 * np.array(kw["size"])
+        return np.vstack([local, corners])
+    if shape == "sphere":
+        d = rng.normal(size=(4000, 3))
+        return kw["radius"] * d / np.linalg.norm(d, axis=1, keepdims=True)
+    if shape == "cylinder":
+        rim = np.column_stack([kw["radius"] * circle, np.sign(v) * kw["length"] / 2])
+        return np.vstack([rim, np.column_stack([kw["radius"] * circle, v * kw["length"] / 2])])
+    d = rng.normal(size=(4000, 3))
+    d = kw["radius"] * d / np.linalg.norm(d, axis=1, keepdims=True)
+    d[:, 2] += np.sign(d[:, 2]) * kw["length"] / 2
+    return d
+
+
+def test_obstacle_boxes_contain_and_touch_surface_samples():
+    """The AABB and the oriented box of rotated primitives and a mesh vs dense samples of their surfaces (brute
+    force): every sample inside, the extreme samples on the boxes' faces."""
+    rng = np.random.default_rng(0)
+    cases = [
         ("box", {"size": (0.8, 0.3, 1.2)}),
         ("cylinder", {"radius": 0.2, "length": 1.5}),
         ("capsule", {"radius": 0.15, "length": 1.0}),
         ("sphere", {"radius": 0.4}),
-    ]:
+    ]
+    for shape, kw in cases:
         for rpy in rng.uniform(-np.pi, np.pi, size=(5, 3)):
             ob = Obstacle(name="o", shape=shape, xyz=(1.0, -2.0, 0.5), rpy=tuple(rpy), **kw)
-            if shape == "box":
-                local = rng.uniform(-1, 1, (4000, 3))
-                face = rng.integers(0, 3, 4000)
-                local[np.arange(4000), face] = np.sign(local[np.arange(4000), face])
-                local *= np.array(kw["size"]) / 2
-                local = np.vstack(
-                    [
-                        local,
-                        np.array(np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T * 0.5 * np.array(kw["size"]),
-                    ]
-                )
-            elif shape == "sphere":
-                d = rng.normal(size=(4000, 3))
-                local = kw["radius"] * d / np.linalg.norm(d, axis=1, keepdims=True)
-            elif shape == "cylinder":
-                rim = np.column_stack([kw["radius"] * circle, np.sign(v) * kw["length"] / 2])
-                local = np.vstack([rim, np.column_stack([kw["radius"] * circle, v * kw["length"] / 2])])
-            else:
-                d = rng.normal(size=(4000, 3))
-                d = kw["radius"] * d / np.linalg.norm(d, axis=1, keepdims=True)
-                d[:, 2] += np.sign(d[:, 2]) * kw["length"] / 2
-                local = d
-            world = local @ Rotation.from_euler("xyz", rpy).as_matrix().T + np.array(ob.xyz)
+            rot = Rotation.from_euler("xyz", rpy).as_matrix()
+            world = _surface_samples(shape, kw, rng) @ rot.T + np.array(ob.xyz)
             box = ob.aabb()
             assert np.all(world >= box[0] - 1e-12) and np.all(world <= box[1] + 1e-12), shape
             np.testing.assert_allclose(world.min(axis=0), box[0], atol=0.02)  # tight
             np.testing.assert_allclose(world.max(axis=0), box[1], atol=0.02)
+            box_rot, centre, half = ob.oriented_box()
+            in_box = (world - centre) @ box_rot  # the samples in the box's frame
+            assert np.all(np.abs(in_box) <= half + 1e-12), shape
+            np.testing.assert_allclose(np.abs(in_box).max(axis=0), half, atol=0.02)  # tight
+    # a mesh: a tetrahedron off its frame's origin, rotated and moved
+    vertices = np.array([[0.5, 0.2, 0.0], [1.5, 0.2, 0.1], [0.7, 1.4, 0.0], [0.9, 0.6, 0.9]])
+    ob = Obstacle(name="m", shape="mesh", xyz=(-1.0, 2.0, 0.3), rpy=(0.3, -0.2, 1.1),
+                  vertices=[tuple(v) for v in vertices], triangles=[(0, 1, 2), (0, 1, 3), (1, 2, 3), (0, 2, 3)])
+    world = vertices @ ob.rotation().T + np.array(ob.xyz)
+    box_rot, centre, half = ob.oriented_box()
+    in_box = (world - centre) @ box_rot
+    assert np.all(np.abs(in_box) <= half + 1e-12)
+    np.testing.assert_allclose(in_box.max(axis=0), half, atol=1e-12)
+    np.testing.assert_allclose(in_box.min(axis=0), -half, atol=1e-12)
 
 
 def test_start_point_region_lookup_errors():

@@ -84,12 +84,22 @@ def test_clearance_kept_where_the_unconstrained_optimum_cuts_through(crane):
     start = np.array([-1.0, 0.6, -1.5, 0.5])
     goal = np.array([1.0, 0.6, -1.5, 0.5])
 
-    def clearance(q: np.ndarray) -> np.ndarray:  # >= 0 outside |q1| < 0.3 and q2 < 0.9 (rad)
-        c = max(abs(q[0]) - 0.3, q[1] - 0.9)
-        return np.array([c] + [1.0] * (N_CLEARANCES - 1))
+    def box_clearance(q: np.ndarray) -> float:  # >= 0 outside |q1| < 0.3 and q2 < 0.9 (rad)
+        return max(abs(q[0]) - 0.3, q[1] - 0.9)
+
+    def clearance(qs: np.ndarray, above_m: float) -> tuple[np.ndarray, np.ndarray]:  # trajopt.Clearances
+        values = np.ones((len(qs), N_CLEARANCES))
+        gradients = np.zeros((len(qs), N_CLEARANCES, 4))
+        for k, q in enumerate(qs):
+            values[k, 0] = box_clearance(q)
+            if abs(q[0]) - 0.3 >= q[1] - 0.9:  # the active side of the max
+                gradients[k, 0, 0] = np.sign(q[0])
+            else:
+                gradients[k, 0, 1] = 1.0
+        return values, gradients
 
     def valid(q: np.ndarray) -> bool:
-        return bool(clearance(q).min() >= 0.0)
+        return bool(box_clearance(q) >= 0.0)
 
     free = optimise_trajectory(crane, np.stack([start, goal]))
     scale = time_scales(crane)
