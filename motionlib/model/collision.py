@@ -530,23 +530,32 @@ class CollisionChecker:
     def _segments_near_obstacles(self, a: np.ndarray, b: np.ndarray, reach: float, refine: bool) -> np.ndarray:
         """Whether each segment ``a``-``b`` (n, 3) (m) may come within ``reach`` (m) of an obstacle (n,) bool.
 
-        Bounds to the obstacles' :meth:`~.scene.Obstacle.oriented_box`: the segment's box in the obstacle's frame
-        grown by ``reach`` misses it; or, with ``refine`` and for the segments that fails for, the distances at the
-        ends of pieces at most :data:`SCREEN_PIECE_M` long, in closed form: the distance to a box is 1-Lipschitz, so
-        a piece of length ``l`` with end distances ``d_0``, ``d_1`` comes no nearer than ``(d_0 + d_1 - l) / 2``.
+        Bounds, each tried on the segments the one before leaves near: the segment's box grown by ``reach`` misses
+        every obstacle's axis-aligned box; its box in each obstacle's frame misses the obstacle's
+        :meth:`~.scene.Obstacle.oriented_box`; with ``refine``, the distances to the oriented boxes at the ends of
+        pieces at most :data:`SCREEN_PIECE_M` long, in closed form: the distance to a box is 1-Lipschitz, so a
+        piece of length ``l`` with end distances ``d_0``, ``d_1`` comes no nearer than ``(d_0 + d_1 - l) / 2``.
         False proves the segment farther than ``reach`` from every obstacle.
         """
         if not self._obstacles:
             return np.zeros(a.shape[0], dtype=bool)
-        # the ends in each obstacle's frame, R^T (p - c): (n, obstacles, 3)
-        a_local = np.einsum("njk,jkl->njl", a[:, None, :] - self._box_centre[None], self._box_rotation)
-        b_local = np.einsum("njk,jkl->njl", b[:, None, :] - self._box_centre[None], self._box_rotation)
+        lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
+        near = np.any(np.all((lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None]),
+                             axis=2), axis=1)
+        rows = np.flatnonzero(near)
+        if rows.size == 0:
+            return near
+        # the ends in each obstacle's frame, R^T (p - c): (rows, obstacles, 3)
+        a_local = np.einsum("njk,jkl->njl", a[rows, None, :] - self._box_centre[None], self._box_rotation)
+        b_local = np.einsum("njk,jkl->njl", b[rows, None, :] - self._box_centre[None], self._box_rotation)
         half = self._box_half[None]
         boxes_meet = (np.minimum(a_local, b_local) - reach <= half) & (np.maximum(a_local, b_local) + reach >= -half)
-        near = np.any(np.all(boxes_meet, axis=2), axis=1)
-        rows = np.flatnonzero(near) if refine else np.zeros(0, dtype=int)
+        near[rows] = np.any(np.all(boxes_meet, axis=2), axis=1)
+        if not refine:
+            return near
+        keep = near[rows]
+        rows, a_local, b_local = rows[keep], a_local[keep], b_local[keep]
         if rows.size:
-            a_local, b_local = a_local[rows], b_local[rows]
             length = np.sqrt(np.sum((b[rows] - a[rows]) ** 2, axis=1))
             pieces = max(1, math.ceil(float(length.max()) / SCREEN_PIECE_M))
             t = np.linspace(0.0, 1.0, pieces + 1)[None, None, :, None]
