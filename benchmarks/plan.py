@@ -51,7 +51,7 @@ from motionlib.model.collision import CollisionChecker
 from motionlib.model.kinematics import Crane
 from motionlib.model.limits import JointAccelerationLimit, JointVelocityLimit, braking_margin
 from motionlib.model.scene import Scene
-from motionlib.planning.planner import Planner, PlanOptions
+from motionlib.planning.planner import Planner, PlanOptions, PlanResult
 from motionlib.planning.timing import time_scale
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -142,6 +142,13 @@ def random_queries(n: int, seed: int):
     return make
 
 
+def timed_plan(planner: Planner, start: np.ndarray, goal: np.ndarray) -> tuple[PlanResult, float]:
+    """``planner.plan(start, goal)`` and its compute time (s)."""
+    t0 = time.perf_counter()
+    result = planner.plan(start, goal)
+    return result, time.perf_counter() - t0
+
+
 def nearest_obstacle(checker: CollisionChecker, start: np.ndarray, goal_q: np.ndarray, loaded: bool) -> str:
     """The obstacle (or the ground) nearest the straight joint-space line from ``start`` to ``goal_q`` (the plan's
     end configuration), with the least distance (m; negative: penetration depth where fcl reports one)."""
@@ -192,9 +199,7 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
     warmup = time.perf_counter() - t0
     rows = []
     for name, start, goal, loaded in queries:
-        t0 = time.perf_counter()
-        res = planners["new", loaded].plan(start, goal)
-        total = time.perf_counter() - t0
+        res, total = timed_plan(planners["new", loaded], start, goal)
         row = {"scene": scene.name, "query": name, "ok": res.ok, "total_s": total, "reason": res.reason}
         row.update({f"{k}_s": v.time_s for k, v in res.stages.items()})
         if res.ok:
@@ -220,16 +225,12 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
             if row["lb_ratio"] > 2.0:
                 row["obstacle"] = nearest_obstacle(exact, start[:4], res.trajectory.q[-1, :4], loaded)
         if compare_old:
-            t0 = time.perf_counter()
-            old = planners["old", loaded].plan(start, goal)
-            row["old_total_s"] = time.perf_counter() - t0
+            old, row["old_total_s"] = timed_plan(planners["old", loaded], start, goal)
             row["old_ok"] = old.ok
             if res.ok and old.ok:
                 row["old_ratio"] = res.trajectory.duration_s / old.trajectory.duration_s
         if compare_library:
-            t0 = time.perf_counter()
-            lib = planners["library", loaded].plan(start, goal)
-            row["lib_total_s"] = time.perf_counter() - t0
+            lib, row["lib_total_s"] = timed_plan(planners["library", loaded], start, goal)
             row["lib_ok"] = lib.ok
             if res.ok and lib.ok:
                 row["lib_ratio"] = lib.trajectory.duration_s / res.trajectory.duration_s

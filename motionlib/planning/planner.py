@@ -1058,26 +1058,29 @@ class Planner:
             & ~self._path_checker.tips_in_collision(self.crane.fk_batch(qs), loaded)
         )
 
+    def _clear_by(self, qs: np.ndarray, distance_m: float, refine: bool) -> np.ndarray:
+        """Where distance bounds prove both clearances of :meth:`_clearances` at least ``distance_m`` (m) at
+        configurations ``qs`` (n, 4) (n,) bool (:meth:`CollisionChecker.configurations_clear_by`, ``refine`` as
+        there); False says nothing."""
+        loaded = self.options.loaded
+        return (self._arm_checker.configurations_clear_by(qs, distance_m, loaded, refine)
+                & self._path_checker.configurations_tip_clear_by(qs, distance_m, loaded, refine))
+
     def _surely_valid_configs(self, qs: np.ndarray) -> np.ndarray:
         """Where bounding boxes prove :meth:`_config_valid` of configurations ``qs`` (n, 4) (n,) bool: within the
         limits, both clearances at least :data:`CLEARANCE_SCREEN_SLACK_M` beyond the margins; False says nothing.
         The boxes alone (no ``refine``): the joint-space searches screen short batches, where the pieces cost more
         than the checks they save."""
-        loaded = self.options.loaded
-        return (self.crane.within_limits(qs)
-                & self._arm_checker.configurations_clear_by(qs, CLEARANCE_SCREEN_SLACK_M, loaded, refine=False)
-                & self._path_checker.configurations_tip_clear_by(qs, CLEARANCE_SCREEN_SLACK_M, loaded, refine=False))
+        return self.crane.within_limits(qs) & self._clear_by(qs, CLEARANCE_SCREEN_SLACK_M, refine=False)
 
     def _clearances(self, qs: np.ndarray, above_m: float) -> tuple[np.ndarray, np.ndarray]:
         """The two clearances of :meth:`_config_valid` (m) at configurations ``qs`` (n, 4): the arm's beyond
         ``arm_clearance_m`` and the grapple's (and log's) beyond ``clearance_m``, both >= 0 where a configuration is
         clear, (n, 2); and their gradients (n, 2, 4) (m/rad, m/m) from the closest points
-        (:meth:`CollisionChecker.distance_and_gradient`). Where bounding boxes prove both at least ``above_m`` (m)
+        (:meth:`CollisionChecker.distance_and_gradient`). Where distance bounds prove both at least ``above_m`` (m)
         plus :data:`CLEARANCE_SCREEN_SLACK_M`, they are inf with zero gradients (:data:`~.trajopt.Clearances`)."""
         loaded = self.options.loaded
-        pad = above_m + CLEARANCE_SCREEN_SLACK_M
-        far = (self._arm_checker.configurations_clear_by(qs, pad, loaded)
-               & self._path_checker.configurations_tip_clear_by(qs, pad, loaded))
+        far = self._clear_by(qs, above_m + CLEARANCE_SCREEN_SLACK_M, refine=True)
         values = np.full((len(qs), 2), np.inf)
         gradients = np.zeros((len(qs), 2, 4))
         for i in np.flatnonzero(~far):
