@@ -213,6 +213,7 @@ def run(scene_file: str, crane_name: str, queries_fn, seed: int, compare_old: bo
                 linear_ratio=d / res.baselines["linear"] if res.baselines["linear"] else float("nan"),
                 js_ratio=d / info.baseline_jointspace_s,
                 lb_ratio=d / info.lower_bound_s,
+                floor=info.lower_bound_s / info.baseline_jointspace_s,  # the least js_ratio any motion can have
                 source=f"{info.path_source}/{info.profile}",
                 slew_ratio=d / slew_bound_s(crane, res.trajectory),
                 swing_rad=info.residual_swing_rad,
@@ -317,7 +318,7 @@ def main() -> None:
             vals = [r[key] for r in ok if key in r and np.isfinite(r[key])]
             extra = f", max {max(vals):.3f}" if key == "old_ratio" and vals else ""
             parts.append(f"mean T/{label} {np.mean(vals) if vals else float('nan'):.3f} (n={len(vals)}{extra})")
-        floor = [r["js_ratio"] / r["lb_ratio"] for r in ok if np.isfinite(r["js_ratio"])]
+        floor = [r["floor"] for r in ok if np.isfinite(r["floor"])]
         parts.append(f"floor of mean T/joint-space baseline {np.mean(floor) if floor else float('nan'):.3f}")
         print("; ".join(parts))
         if ok:
