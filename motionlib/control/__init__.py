@@ -31,6 +31,8 @@ payload_source
     :class:`~.payload_source.PayloadSource`: the payload's rate at one crane's grasp frame, as its tip rate.
 tracker
     Path tracking with nearest point and look-ahead (000 eq. 3).
+joint_feedforward
+    The joints' feedforward: the valve command that inverts each joint's lag and oil spring along the plan.
 mixer
     The shared-control mixer ``p_s = c_a p_a + c_o p_o`` with weak zones (000 eqs. 4-5).
 resolved_rate

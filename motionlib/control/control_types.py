@@ -265,6 +265,17 @@ class ControllerParams:
         the plant's ``SimParams(natural_freq_hz=None)``; 2.5 Hz on a file without them). Not the default
         yet: with both per joint, 12 closed-loop tests do not settle (docs/runtime.md, "Per-joint natural
         frequencies").
+    joint_feedforward : bool
+        Feed each joint's identified model forward (off by default): the path tracker adds, per joint, what
+        inverting the valve lag and the oil spring (``joint_natural_freq_hz``, ``joint_damping_ratio``,
+        ``valve_lag_s``) with the planned swing's pull as the load adds to the plan's speed
+        (:mod:`motionlib.control.joint_feedforward`), so that a slow joint does not store the plan's braking in
+        its oil spring and ring after the end. On with the per-joint plant
+        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`; docs/runtime.md,
+        "Per-joint natural frequencies"); on the default plant's 2.5 Hz joints the tracker's preview covers
+        the lag.
+    valve_lag_s : float
+        The valves' spool time constant (s) of the joint model: the plant's ``SimParams.tau_s``.
     position_gain_margin : float
         Gain margin of the automation's position loops (the tracker's final convergence
         ``end_gain_per_s`` and its pull back onto the path ``lateral_gain_per_s`` are capped at the gain
@@ -298,6 +309,8 @@ class ControllerParams:
     swing_damping_deadband_rad: float = param(0.02, ge=0.0)
     joint_natural_freq_hz: float | None = param(2.5, gt=0.0, le=100.0, optional=True)
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
+    joint_feedforward: bool = False
+    valve_lag_s: float = param(0.04, ge=0.0, le=1.0)
     position_gain_margin: float = param(3.0, ge=0.0)
     feedback: ForceFeedbackParams | None = None
 
@@ -305,8 +318,9 @@ class ControllerParams:
         check_params(self)
         if self.feedback is not None and not isinstance(self.feedback, ForceFeedbackParams):
             raise InputError(f"feedback: expected ForceFeedbackParams or None, got {type(self.feedback).__name__}")
-        if not isinstance(self.command_ramp, bool):
-            raise InputError(f"command_ramp: expected true or false, got {self.command_ramp!r}")
+        for name in ("command_ramp", "joint_feedforward"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
         if self.weights is not None:
             w = check_vector(self.weights, 4, "weights")
             if not np.all(w > 0.0):

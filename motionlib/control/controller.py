@@ -108,6 +108,7 @@ from .control_types import (
     OperatorInput,
 )
 from .force_feedback import ForceFeedback
+from .joint_feedforward import joint_feedforward
 from .mixer import Mixer, MixerParams, ObstacleGuard
 from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
@@ -281,14 +282,32 @@ class SharedController:
             The tracker of the motion (also :attr:`tracker`).
         """
         prm, k_max = self.tracker_params, self.position_gain_max(trajectory.q)
+        feedforward = None
+        if self.params.joint_feedforward:
+            feedforward = joint_feedforward(trajectory, self.crane, self.joint_omega_rad_s(),
+                                            self.params.joint_damping_ratio, self.params.valve_lag_s,
+                                            prm.time_preview_s, self.params.dt_s)
         tracker = PathTracker(trajectory, self.crane, replace(
-            prm, end_gain_per_s=min(prm.end_gain_per_s, k_max), lateral_gain_per_s=min(prm.lateral_gain_per_s, k_max)))
+            prm, end_gain_per_s=min(prm.end_gain_per_s, k_max), lateral_gain_per_s=min(prm.lateral_gain_per_s, k_max)),
+            feedforward, self.params.dt_s)
         self.tracker = tracker
         if self.rotator is not None:
             self.rotator.start(trajectory)
         self._motion_end = tracker.end
         self._begin(PathTrackerSource(tracker), t, f"{trajectory.duration_s:.3f} s planned")
         return tracker
+
+    def joint_omega_rad_s(self) -> tuple[float, ...]:
+        """The joint model's natural frequencies (4,) (rad/s): ``joint_natural_freq_hz``, or each joint's own.
+
+        With ``joint_natural_freq_hz=None`` each joint's from the crane file's oil springs
+        (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`), 2.5 Hz on a file without them.
+        """
+        hz = self.params.joint_natural_freq_hz
+        omega = self.crane.model.natural_frequencies_rad_s() if hz is None else None
+        if omega is None:
+            return (2.0 * math.pi * (hz or DEFAULT_NATURAL_FREQ_HZ),) * 4
+        return tuple(float(w) for w in omega[:4])
 
     def position_gain_max(self, q: Any) -> float:
         """Largest position-loop gain (1/s) on the joint model, loaded by the grapple, at configurations ``q`` (n, 4).
@@ -316,9 +335,7 @@ class SharedController:
         if prm.position_gain_margin == 0.0:
             return math.inf
         model = self.crane.model
-        omega = model.natural_frequencies_rad_s() if prm.joint_natural_freq_hz is None else None
-        if omega is None:
-            omega = (2.0 * math.pi * (prm.joint_natural_freq_hz or DEFAULT_NATURAL_FREQ_HZ),) * 4
+        omega = self.joint_omega_rad_s()
         rho = [0.0] * 4
         if model.load_mass and model.joint_inertia is not None:
             qs = np.atleast_2d(np.asarray(q, dtype=np.float64))

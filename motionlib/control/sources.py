@@ -237,7 +237,7 @@ class PathTrackerSource(RateSource):
 
     def rate(self, ctx: StepContext) -> Vec3:
         tr = self.tracker
-        tr.update(ctx.p, ctx.q, ctx.tip_speed, ctx.t)
+        tr.update(ctx.p, ctx.q, ctx.tip_speed, ctx.t, ctx.jac)
         g = self.gains
         if g == (1.0, 1.0, 1.0):
             return tr.pd_a

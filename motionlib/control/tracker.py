@@ -89,6 +89,7 @@ from numba import njit
 
 from ..checks import check_params, check_scalar, param
 from ..errors import InputError
+from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
 from ..planning.spline import TipSpline
 from ..planning.swing import Pendulum, swing_response, tip_velocity
@@ -96,6 +97,7 @@ from ..planning.trajectory import Trajectory
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]
+_NO_JACOBIAN = (0.0,) * 12
 
 
 TABLE_COLUMNS: tuple[str, ...] = ("px", "py", "pz", "v2", "q1", "q2", "q3", "q4",
@@ -114,8 +116,10 @@ update (s, NaN before the first), for ``timing="time"``)."""
 _I, _S_P, _DEV, _DIST_END, _LOOKAHEAD, _SPEED, _PD, _Z, _T_REF, _S_REF, _I_REF, _R_REF, _T_LAST = (
     0, 1, 2, 3, 4, 5, 6, 9, 13, 14, 15, 16, 18)
 # PathTracker.consts: s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau, h, 1/h, window (samples), l,
-# timed (0/1), k_t, lead (s), tau_t (s), k_lat (1/s)
-N_TRACKER_CONSTS = 17
+# timed (0/1), k_t, lead (s), tau_t (s), k_lat (1/s), the joint feedforward's time step (s)
+N_TRACKER_CONSTS = 18
+#: An empty joint feedforward table (:class:`PathTracker` without ``feedforward``).
+NO_FEEDFORWARD = np.zeros((0, 4))
 TIMINGS = ("time", "path")
 
 
@@ -210,6 +214,13 @@ class PathTracker:
     crane : Crane
         The crane the trajectory was planned for.
     params : TrackerParams, optional
+    feedforward : ndarray, shape (n, 4), optional
+        The joints' feedforward ``delta`` (rad/s, m/s) on the plan's clock every ``feedforward_dt_s`` from 0
+        (:func:`~motionlib.control.joint_feedforward.joint_feedforward`, ``timing="time"`` only): while the
+        plan's clock runs, ``delta(t_ref)`` is added to the null-space reference ``z`` and ``J delta`` to
+        ``p_a``, so the resolved rate (000 eq. 2) passes it to the joints unchanged. None: no feedforward.
+    feedforward_dt_s : float
+        Its time step (s).
 
     Attributes (after :meth:`update`)
     ---------------------------------
@@ -233,12 +244,23 @@ class PathTracker:
         Null-space joint-velocity reference (rad/s, m/s).
     """
 
-    def __init__(self, trajectory: Trajectory, crane: Crane, params: TrackerParams | None = None):
+    def __init__(self, trajectory: Trajectory, crane: Crane, params: TrackerParams | None = None,
+                 feedforward: np.ndarray | None = None, feedforward_dt_s: float = 0.005):
         if not isinstance(trajectory, Trajectory) or not isinstance(crane, Crane):
             raise InputError(
                 f"expected a Trajectory and a Crane, got {type(trajectory).__name__}, {type(crane).__name__}"
             )
         self.params = params or TrackerParams()
+        if feedforward is None:
+            feedforward = NO_FEEDFORWARD
+        elif self.params.timing != "time":
+            raise InputError("feedforward: needs timing='time' (it runs on the plan's clock)")
+        #: The joints' feedforward table (n, 4) (rad/s, m/s); (0, 4) without one.
+        self.feedforward = np.ascontiguousarray(feedforward, dtype=np.float64)
+        if self.feedforward.ndim != 2 or self.feedforward.shape[1] != 4 or not np.all(np.isfinite(self.feedforward)):
+            raise InputError(f"feedforward: expected a finite (n, 4) array, got shape {self.feedforward.shape}")
+        check_scalar(feedforward_dt_s, "feedforward_dt_s", gt=0.0)
+        self._kin = TipKinematics(crane)
         self.trajectory = trajectory
         self.spline = TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
         self.length = self.spline.length
@@ -257,7 +279,7 @@ class PathTracker:
                                 prm.converge_speed_m_s, prm.config_gain_per_s, prm.lag_preview_s, self.h,
                                 1.0 / self.h, max(1, int(math.ceil(prm.window_m / self.h))), self.length,
                                 float(prm.timing == "time"), prm.time_gain_per_s, prm.lead_s, prm.time_preview_s,
-                                prm.lateral_gain_per_s])
+                                prm.lateral_gain_per_s, feedforward_dt_s])
         #: The tracker's state (TRACKER_STATE: search index, s_p, distances, look-ahead, speed, p_a, z).
         self.state = np.zeros(len(TRACKER_STATE))
         self.reset()
@@ -315,7 +337,8 @@ class PathTracker:
         """Local nearest-point search; returns ``(s_p, |p - q(s_p)|)`` and advances the search index."""
         return tracker_nearest(self.table, self.consts, self.state, x, y, z)
 
-    def update(self, p: Vec3, q: Vec4, tip_speed_m_s: float = 0.0, t: float = 0.0) -> None:
+    def update(self, p: Vec3, q: Vec4, tip_speed_m_s: float = 0.0, t: float = 0.0,
+               jac: tuple[float, ...] | None = None) -> None:
         """One tracking step (:func:`tracker_update`); sets the attributes.
 
         Parameters
@@ -329,9 +352,13 @@ class PathTracker:
         t : float
             The controller's clock (s): the plan's clock advances by the time since the last update
             (``timing="time"``; the first update starts it at 0).
+        jac : tuple of 12 float, optional
+            The tip Jacobian (3, 4) at ``q``, row by row, for the joint feedforward (computed when None).
         """
-        tracker_update(self.table, self.consts, self.state, p[0], p[1], p[2], q[0], q[1], q[2], q[3],
-                       tip_speed_m_s, t)
+        if jac is None:
+            jac = self._kin.tip_jacobian(q[0], q[1], q[2], q[3])[1] if self.feedforward.size else _NO_JACOBIAN
+        tracker_update(self.table, self.feedforward, self.consts, self.state, p[0], p[1], p[2], q[0], q[1], q[2],
+                       q[3], jac, tip_speed_m_s, t)
 
     # ----------------------------------------------------------- inspection
     def plan_speed(self, s: Any) -> np.ndarray:
@@ -474,19 +501,24 @@ def _arc_at_time(table, h: float, t: float, j: int) -> tuple[float, int]:
 
 
 @njit(cache=True)
-def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float, q2: float, q3: float, q4: float,
-                   tip_speed: float, t: float) -> None:
+def tracker_update(table, feedforward, consts, state, x: float, y: float, z: float, q1: float, q2: float, q3: float,
+                   q4: float, jac, tip_speed: float, t: float) -> None:
     """One tracking step (module docstring, 000 eq. 3) for the tip at ``(x, y, z)`` (m), joints ``q1..q4``.
 
     Parameters
     ----------
     table : ndarray, shape (n, 12)
         :data:`TABLE_COLUMNS`.
+    feedforward : ndarray, shape (m, 4)
+        The joints' feedforward on the plan's clock (:class:`PathTracker`); (0, 4): none.
     consts : ndarray, shape (N_TRACKER_CONSTS,)
         ``s_min, s_max, k_Delta, v_floor, k_end, v_conv, k_q, tau``, the table's ``h``, ``1/h``,
-        search window (samples) and length ``l`` (m), then ``timed, k_t, lead, tau_t, k_lat``.
+        search window (samples) and length ``l`` (m), then ``timed, k_t, lead, tau_t, k_lat`` and the
+        feedforward's time step (s).
     state : ndarray, shape (13,)
         :data:`TRACKER_STATE`, updated in place.
+    jac : sequence of 12 float
+        The tip Jacobian (3, 4) at the joints, row by row (used with a feedforward only).
     tip_speed : float
         Current tip speed ``|p_dot|`` (m/s), for the lag preview of the speed table.
     t : float
@@ -585,3 +617,13 @@ def tracker_update(table, consts, state, x: float, y: float, z: float, q1: float
         a0, a1 = table[k, _Q + c], table[k + 1, _Q + c]
         b0, b1 = table[k, _DQ + c], table[k + 1, _DQ + c]
         state[_Z + c] = v * (b0 + g * (b1 - b0)) + k_q * (a0 + g * (a1 - a0) - q[c])
+
+    # the joints' feedforward on the plan's clock while it runs: z + delta, p_a + J delta (000 eq. 2 passes it)
+    m = feedforward.shape[0]
+    if running and m > 1:
+        j, f = _interval(state[_T_REF] / consts[17], m - 2)
+        for c in range(4):
+            d = feedforward[j, c] + f * (feedforward[j + 1, c] - feedforward[j, c])
+            state[_Z + c] += d
+            for r in range(3):
+                state[_PD + r] += jac[4 * r + c] * d

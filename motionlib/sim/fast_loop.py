@@ -66,7 +66,7 @@ from ..control.controller import SharedController
 from ..control.mixer import GUARD_CACHE, MIXER_STATE, guard_clear
 from ..control.runlog import COLUMNS, RunLog
 from ..control.sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
-from ..control.tracker import N_TRACKER_CONSTS, TABLE_COLUMNS, TRACKER_STATE, tracker_update
+from ..control.tracker import N_TRACKER_CONSTS, NO_FEEDFORWARD, TABLE_COLUMNS, TRACKER_STATE, tracker_update
 from ..model.fast_kinematics import tip_point_jacobian, tip_speed
 from .hydraulics import Q, V
 from .operator_model import (
@@ -139,6 +139,7 @@ class ControllerArrays(NamedTuple):
     js_gains: np.ndarray
     setup: np.ndarray
     table: np.ndarray
+    feedforward: np.ndarray
     tracker_consts: np.ndarray
     tracker_state: np.ndarray
     guard: np.ndarray
@@ -197,12 +198,12 @@ def controller_arrays(controller: SharedController) -> ControllerArrays:
         setup[U_GAIN:U_GAIN + 3] = motion.gains
         setup[U_TOL], setup[U_SPEED] = tr.params.arrive_tol_m, tr.params.arrive_speed_m_s
         setup[U_END:U_END + 3] = tr.end
-        table, tconsts, tstate = tr.table, tr.consts, tr.state
+        table, feedforward, tconsts, tstate = tr.table, tr.feedforward, tr.consts, tr.state
     else:
-        table = np.zeros((2, len(TABLE_COLUMNS)))
+        table, feedforward = np.zeros((2, len(TABLE_COLUMNS))), NO_FEEDFORWARD
         tconsts, tstate = np.zeros(N_TRACKER_CONSTS), np.zeros(len(TRACKER_STATE))
     return ControllerArrays(controller.consts, controller.state, controller.mixer.consts, controller.mixer.state,
-                            controller.kin.g, gains, setup, table, tconsts, tstate,
+                            controller.kin.g, gains, setup, table, feedforward, tconsts, tstate,
                             guard.cache if guard is not None else np.zeros(len(GUARD_CACHE)))
 
 
@@ -408,7 +409,8 @@ def _gather(ctl, t: float, q, qd, p, jac, tip_speed: float, scratch, events, cou
     dev, dist_end = 0.0, math.inf
     if auto:
         ts = ctl.tracker_state
-        tracker_update(ctl.table, ctl.tracker_consts, ts, p[0], p[1], p[2], q[0], q[1], q[2], q[3], tip_speed, t)
+        tracker_update(ctl.table, ctl.feedforward, ctl.tracker_consts, ts, p[0], p[1], p[2], q[0], q[1], q[2], q[3],
+                       jac, tip_speed, t)
         pa_x = pa_y = pa_z = 0.0
         pa_x += setup[U_GAIN] * ts[_TR_PD]
         pa_y += setup[U_GAIN + 1] * ts[_TR_PD + 1]

@@ -11,6 +11,7 @@ through every way a segment returns to Python
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -37,10 +38,10 @@ def setting():
     return crane, scene, {"out": out, "back": back}
 
 
-def _run(setting, which, mode, operator, compiled, guard=True, sim=None, **overrides):
+def _run(setting, which, mode, operator, compiled, guard=True, options=None, **overrides):
     crane, scene, trajs = setting
     traj = trajs[which]
-    opts = ExecuteOptions(seed=3, obstacle_guard=guard, sim=sim or SimParams())
+    opts = replace(options or ExecuteOptions(), seed=3, obstacle_guard=guard)
     ctl, plant = prepare_run(crane, scene, mode, traj.q[0], loaded=traj.info.loaded, options=opts)
     ctl.start_motion(traj)
     target = crane.fk(traj.q[-1]) + np.array([0.12, -0.1, 0.05])
@@ -93,12 +94,14 @@ def test_compiled_loop_gives_the_python_loops_run(setting, which, mode, operator
 
 
 def test_compiled_loop_with_per_joint_stiffness_gives_the_python_loops_run(setting):
-    """The plant with each joint's own natural frequency from the crane file (per-joint w2, zw2 arrays)."""
-    sim = SimParams(natural_freq_hz=None)
-    python = _run(setting, "back", "M6", "novice", compiled=False, sim=sim)
-    compiled = _run(setting, "back", "M6", "novice", compiled=True, sim=sim)
+    """The plant with each joint's own natural frequency from the crane file (per-joint w2, zw2 arrays), with the
+    controller for it: the joints' feedforward in the tracker."""
+    options = ExecuteOptions().with_per_joint_stiffness()
+    python = _run(setting, "back", "M6", "novice", compiled=False, options=options)
+    compiled = _run(setting, "back", "M6", "novice", compiled=True, options=options)
     _assert_same_run(python, compiled)
     assert len(set(compiled[2].omega_rad_s)) == 4  # four different frequencies
+    assert compiled[1].tracker.feedforward.shape[0] > 100 and np.abs(compiled[1].tracker.feedforward).max() > 0.0
     assert compiled[0].steps > 1000
 
 
@@ -167,9 +170,9 @@ def test_the_swing_settle_rule_is_the_same_compiled(setting, settle_swing_rad):
 def test_compiled_loop_grows_its_buffers_like_python(setting):
     """A slow reaction (2 s: more steps than a new perception buffer holds) and flow noise in the
     plant (its normals run out every 256 steps): both are refilled between segments, in order."""
-    noisy = SimParams(noise_frac=0.05, seed=11)
-    python = _run(setting, "out", "M4", "novice", compiled=False, sim=noisy, reaction_time_s=2.0)
-    compiled = _run(setting, "out", "M4", "novice", compiled=True, sim=noisy, reaction_time_s=2.0)
+    noisy = ExecuteOptions(sim=SimParams(noise_frac=0.05, seed=11))
+    python = _run(setting, "out", "M4", "novice", compiled=False, options=noisy, reaction_time_s=2.0)
+    compiled = _run(setting, "out", "M4", "novice", compiled=True, options=noisy, reaction_time_s=2.0)
     _assert_same_run(python, compiled)
     op = compiled[3]
     assert op.seen.shape[0] > 256 and compiled[0].steps > 3 * 256
