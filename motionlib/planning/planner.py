@@ -348,16 +348,25 @@ PLAN_STAGES: tuple[str, ...] = ("path", "jointspace", "trajopt", "redundancy", "
 
 
 class _Stages(dict):
-    """The stage reports of a plan; each one stored advances ``progress`` (its stage finished)."""
+    """The stage reports of a plan; the first report of each stage advances ``progress`` (its stage finished).
+
+    A stage reported again (the tip-path fallback after the joint candidates gave no plan runs ``path`` to
+    ``swing`` once more) replaces the report and is logged, so the progress stays within ``PLAN_STAGES``.
+    """
 
     def __init__(self, progress: Progress | None):
         super().__init__()
         self.progress = progress
 
     def __setitem__(self, name: str, report: StageReport) -> None:
+        again = name in self
         super().__setitem__(name, report)
         if self.progress is not None:
-            self.progress.advance(report.status != "failed", f"{name}: {report.status}, {report.time_s:.1f} s")
+            message = f"{name}: {report.status}, {report.time_s:.1f} s"
+            if again:
+                self.progress.log(message + " (again)")
+            else:
+                self.progress.advance(report.status != "failed", message)
 
 
 @dataclass

@@ -357,3 +357,42 @@ def test_cli_plan_failure_is_one_line_and_writes_nothing(tmp_path):
     lines = [line for line in r.output.splitlines() if line.strip()]
     assert len(lines) == 1 and "beyond reach" in lines[0] and "Traceback" not in r.output
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+class _RecordingProgress:
+    """A :class:`~motionlib.progress.Progress` that keeps what it is told."""
+
+    def __init__(self) -> None:
+        self.total, self.advanced, self.logged = 0, [], []
+
+    def start(self, total: int, done: int = 0, failed: int = 0) -> None:
+        self.total = total
+
+    def advance(self, ok: bool, message: str = "") -> None:
+        self.advanced.append(message.split(":")[0])
+
+    def log(self, message: str) -> None:
+        self.logged.append(message)
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_stage_reported_again_advances_the_progress_once(lab, lab_scene):
+    """The tip-path fallback reports ``path`` to ``swing`` again after the joint candidates: the progress advances
+    once per stage (within ``PLAN_STAGES``) and logs the repeat; the plan keeps the last report."""
+    from motionlib.planning.planner import PLAN_STAGES, _Stages
+    from motionlib.planning.trajectory import StageReport
+
+    progress = _RecordingProgress()
+    stages = _Stages(progress)
+    stages["redundancy"] = StageReport("failed", 0.1, {})
+    stages["redundancy"] = StageReport("ok", 0.2, {})
+    assert progress.advanced == ["redundancy"] and progress.logged == ["redundancy: ok, 0.2 s (again)"]
+    assert stages["redundancy"].status == "ok"
+
+    progress = _RecordingProgress()
+    result = Planner(lab, lab_scene, PlanOptions(seed=3)).plan(lab_scene.start("target-center"),
+                                                               lab_scene.point("pickup-a"), progress)
+    assert result.ok and progress.total == len(PLAN_STAGES)
+    assert sorted(progress.advanced) == sorted(set(progress.advanced)) and set(progress.advanced) <= set(PLAN_STAGES)
