@@ -38,9 +38,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..model.crane_model import GRAVITY_M_S2
-from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
-from ..planning.swing import Pendulum, swing_response
+from ..planning.swing import Pendulum, swing_response, tip_velocity
 from ..planning.trajectory import Trajectory
 
 
@@ -84,18 +83,17 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
         return np.column_stack([np.interp(times, t_plan, x[:, i], left=0.0, right=0.0) for i in range(4)])
 
     qd, qdd = at(t, trajectory.qd), at(t, trajectory.qdd)
-    q = np.column_stack([np.interp(t, t_plan, trajectory.q[:, i]) for i in range(4)])
-    kin = TipKinematics(crane)
-    jac = np.array([kin.tip_jacobian(*row)[1] for row in q.tolist()]).reshape(-1, 3, 4)
     load = np.zeros_like(qd)
     model = crane.model
     if model.load_mass and model.joint_inertia is not None:
         loaded = bool(trajectory.info.loaded)
         mass = model.load_mass + ((model.log_mass or 0.0) if loaded else 0.0)
-        v_h = np.einsum("nij,nj->ni", jac[:, :2, :], qd)
-        theta, _ = swing_response(t, v_h, Pendulum.from_crane(model, loaded))
+        q = np.column_stack([np.interp(t, t_plan, trajectory.q[:, i]) for i in range(4)])
+        theta, _ = swing_response(t, tip_velocity(crane, q, qd)[:, :2], Pendulum.from_crane(model, loaded))
         force = mass * GRAVITY_M_S2 * theta  # (n, 2) N: the rod's horizontal pull on the tip
-        load = np.einsum("nij,ni->nj", jac[:, :2, :], force) / np.asarray(model.joint_inertia[:4], dtype=np.float64)
+        # J_i . F_h: the tip's horizontal velocity per unit rate of joint i, along the pull
+        reach = np.stack([tip_velocity(crane, q, np.broadcast_to(e, q.shape))[:, :2] for e in np.eye(4)], axis=2)
+        load = np.einsum("nij,ni->nj", reach, force) / np.asarray(model.joint_inertia[:4], dtype=np.float64)
     qddd = np.gradient(qdd, dt_s, axis=0)
     y = qd + (2.0 * zeta / omega) * qdd + (qddd - np.gradient(load, dt_s, axis=0)) / omega ** 2
     u = y + valve_lag_s * np.gradient(y, dt_s, axis=0)

@@ -260,7 +260,7 @@ class PathTracker:
         if self.feedforward.ndim != 2 or self.feedforward.shape[1] != 4 or not np.all(np.isfinite(self.feedforward)):
             raise InputError(f"feedforward: expected a finite (n, 4) array, got shape {self.feedforward.shape}")
         check_scalar(feedforward_dt_s, "feedforward_dt_s", gt=0.0)
-        self._kin = TipKinematics(crane)
+        self._kin = TipKinematics(crane) if self.feedforward.size else None  # update()'s Jacobian, when not given
         self.trajectory = trajectory
         self.spline = TipSpline.from_arrays(trajectory.spline_breakpoints, trajectory.spline_coefficients)
         self.length = self.spline.length
@@ -356,7 +356,7 @@ class PathTracker:
             The tip Jacobian (3, 4) at ``q``, row by row, for the joint feedforward (computed when None).
         """
         if jac is None:
-            jac = self._kin.tip_jacobian(q[0], q[1], q[2], q[3])[1] if self.feedforward.size else _NO_JACOBIAN
+            jac = _NO_JACOBIAN if self._kin is None else self._kin.tip_jacobian(q[0], q[1], q[2], q[3])[1]
         tracker_update(self.table, self.feedforward, self.consts, self.state, p[0], p[1], p[2], q[0], q[1], q[2],
                        q[3], jac, tip_speed_m_s, t)
 
