@@ -89,7 +89,7 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
         loaded = bool(trajectory.info.loaded)
         mass = model.load_mass + ((model.log_mass or 0.0) if loaded else 0.0)
         q = np.column_stack([np.interp(t, t_plan, trajectory.q[:, i]) for i in range(4)])
-        theta, _ = swing_response(t, tip_velocity(crane, q, qd)[:, :2], Pendulum.from_crane(model, loaded))
+        theta, _ = swing_response(t, tip_velocity(crane, q, qd), Pendulum.from_crane(model, loaded))
         force = mass * GRAVITY_M_S2 * theta  # (n, 2) N: the rod's horizontal pull on the tip
         # J_i . F_h: the tip's horizontal velocity per unit rate of joint i, along the pull
         reach = np.stack([tip_velocity(crane, q, np.broadcast_to(e, q.shape))[:, :2] for e in np.eye(4)], axis=2)

@@ -419,7 +419,7 @@ def path_tables(trajectory: Trajectory, crane: Crane, spline: TipSpline, step_m:
     t = np.interp(s, s_u, t_u)  # s = 0: the last sample at rest, when the plan's tip leaves
     # the planned swing as the grapple's horizontal offset from the tip, L theta (small angles)
     pendulum = Pendulum.from_crane(crane.model)
-    theta, _ = swing_response(trajectory.t, v_tip[:, :2], pendulum)
+    theta, _ = swing_response(trajectory.t, v_tip, pendulum)
     r = np.column_stack([np.interp(s, s_u, pendulum.length_m * theta[keep, j]) for j in range(2)])
     return {"s": s, "p": p, "v": v, "q": q, "dq_ds": dq_ds, "t": t, "r": r}
 

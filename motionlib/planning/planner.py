@@ -156,8 +156,10 @@ class PlanStatus(Enum):
 #: all leave the limits (a path along a joint limit) is a candidate on its own configurations; 10: library builds
 #: (not :func:`plan`'s defaults) skip the joint-space baseline's verification and search the tip-space path only
 #: when the joint candidates give no plan (``PlanOptions.jointspace_baseline``, ``PlanOptions.tip_path_always``);
-#: the minimum-time joint motion's clearance gradients come from fcl's closest points (were forward differences).
-PLANNER_VERSION = 10
+#: the minimum-time joint motion's clearance gradients come from fcl's closest points (were forward differences);
+#: 11: the swing model (the settled law's and the predicted residual) takes the tip's vertical acceleration into the
+#: pendulum's stiffness, ``(g + a_z) / L`` (:mod:`~motionlib.planning.swing`; was ``g / L``).
+PLANNER_VERSION = 11
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"

@@ -22,11 +22,12 @@ with ``J = 1/2 int s_ddd^2 dt`` the path's total jerk (:data:`JERK_WEIGHT`).
   piecewise constant path acceleration (:meth:`~motionlib.planning.time_law.TimeLaw.from_toppra`), so the
   path is unchanged.
 * The pendulum is (1) of :mod:`motionlib.planning.swing` per horizontal axis in its state
-  ``z = (theta, theta' + v_h / L)`` driven by the tip's horizontal velocity ``V = p'(s) v`` (``p'`` from
-  :func:`~motionlib.planning.swing.tip_velocity` at the grid points), linear in time over each interval
-  of ``dt_i = 2 ds_i / (v_i + v_{i+1})`` (as the first-order hold of
-  :func:`~motionlib.planning.swing.swing_response`) and integrated exactly (:func:`_pendulum_step`), as
-  unknowns of the problem (multiple shooting: sparse derivatives) with the path speeds.
+  ``z = (theta, theta' + v_h / L)`` driven by the tip's velocity ``V = p'(s) v`` (``p'`` from
+  :func:`~motionlib.planning.swing.tip_velocity` at the grid points): its horizontal part drives the swing and
+  its vertical acceleration sets the pendulum's stiffness ``(g + a_z) / L``. ``V`` is linear in time over each
+  interval of ``dt_i = 2 ds_i / (v_i + v_{i+1})`` (as in :func:`~motionlib.planning.swing.swing_response`) and
+  each interval is integrated exactly by the same :func:`~motionlib.planning.swing.pendulum_step`; the states
+  are unknowns of the problem (multiple shooting: sparse derivatives) with the path speeds.
 * IPOPT (CasADi) solves it within ``max_iter`` iterations (a budget in iterations, so the result does not
   depend on the machine); only ``Solve_Succeeded`` counts. It starts from TOPPRA's law shaped by the ZVD
   shaper (:func:`~motionlib.planning.shaping.zvd_impulses`), whose swing ends near zero for every rod length of
@@ -56,7 +57,7 @@ import numpy as np
 from ..errors import PlanningError
 from ..model.limits import Limit
 from .shaping import zvd_impulses
-from .swing import Pendulum, tip_velocity
+from .swing import Pendulum, pendulum_step, swing_accumulator, tip_velocity
 from .time_law import TimeLaw
 
 #: The residual swing is bounded at this fraction of the planner's tolerance: room for the jerk box and for
@@ -157,51 +158,6 @@ def _linear_rows(limits: Sequence[Limit], path: Any, grid: np.ndarray
     return x_max, rows
 
 
-def _pendulum_values(pendulum: Pendulum) -> np.ndarray:
-    """The numbers of :func:`_pendulum_step`'s pendulum input ``p`` (12,): ``A`` (row-major), ``A^-1`` (row-major),
-    ``B``, ``sigma = c / 2`` and ``omega_d`` of :meth:`~motionlib.planning.swing.Pendulum.system`."""
-    a_mat, b_mat, _, _ = pendulum.system()
-    return np.concatenate([a_mat.ravel(), np.linalg.inv(a_mat).ravel(), b_mat.ravel(),
-                           [pendulum.decay_per_s, pendulum.omega_d]])
-
-
-@functools.cache
-def _pendulum_step() -> ca.Function:
-    """One grid interval of (1) for both axes, exactly: ``(z, v0, v1, d0, d1, h, p) -> z_next``.
-
-    ``z`` (4,) is ``(theta_x, r_x, theta_y, r_y)``, ``r = theta' + v_h / L``; the interval runs at path
-    speeds ``v0 -> v1`` (constant path acceleration) for ``h`` (s), ``d0``, ``d1`` (2,) the
-    tip's horizontal velocity per unit path speed at its ends, and the input ``w = d v`` is taken linear in
-    time over the interval (the first-order hold of :func:`~motionlib.planning.swing.swing_response`); ``p``
-    (12,) is the pendulum (:func:`_pendulum_values`), an input so that one problem serves every rod length.
-    With ``Phi = e^(A h) = e^(-sigma h) (cos(omega_d h) I + sin(omega_d h) / omega_d (A + sigma I))``
-    (``sigma = c / 2``)::
-
-        z_next = Phi z + A^-1 (Phi - I) B w0 + (A^-2 (Phi - I) - A^-1 h) B (w1 - w0) / h
-    """
-    args = [ca.SX.sym(name, size)
-            for name, size in (("z", 4), ("v0", 1), ("v1", 1), ("d0", 2), ("d1", 2), ("h", 1), ("p", 12))]
-    z, v0, v1, d0, d1, h, p = args
-    a_mat, a_inv, b = ca.reshape(p[0:4], 2, 2).T, ca.reshape(p[4:8], 2, 2).T, p[8:10]
-    sigma, omega = p[10], p[11]
-    eye = ca.SX.eye(2)
-    phi = ca.exp(-sigma * h) * (ca.cos(omega * h) * eye + ca.sin(omega * h) / omega * (a_mat + sigma * eye))
-    gamma0 = ca.mtimes([a_inv, phi - eye, b])
-    gamma1 = ca.mtimes(ca.mtimes([a_inv, a_inv, phi - eye]) - a_inv * h, b)
-    out = []
-    for axis in range(2):
-        w0, w1 = d0[axis] * v0, d1[axis] * v1
-        zi = z[2 * axis : 2 * axis + 2]
-        out.append(ca.mtimes(phi, zi) + gamma0 * w0 + gamma1 * (w1 - w0) / h)
-    return ca.Function("pendulum_step", args, [ca.vertcat(*out)])
-
-
-@functools.lru_cache(maxsize=4)
-def _swing_accumulator(m: int) -> ca.Function:
-    """:func:`_pendulum_step` over ``m`` intervals from ``z_0``: the states after each (4, m)."""
-    return _pendulum_step().mapaccum(m)
-
-
 @dataclass(frozen=True)
 class _Problem:
     """The transcription (module docstring) for one grid size and set of constraint rows, its data as parameters.
@@ -236,9 +192,9 @@ class _Problem:
 @functools.lru_cache(maxsize=8)
 def _problem(n: int, rows: tuple[tuple[bool, ...], ...], with_peak: bool, max_iter: int) -> _Problem:
     """The NLP of :func:`settled_law` on ``n`` grid points (module docstring). Its parameters, in order: the
-    intervals ``ds`` (n - 1,), the tip's horizontal velocity per unit path speed ``d`` (2, n) column-major, each
-    rod length's pendulum (:func:`_pendulum_values`, 12 each) and each row set's ``Fa``, ``Fb``, ``Fc`` (n, k)
-    column-major."""
+    intervals ``ds`` (n - 1,), the tip's velocity per unit path speed ``d`` (3, n) column-major, each rod length's
+    pendulum (:meth:`~motionlib.planning.swing.Pendulum.parameters`, 3 each) and each row set's ``Fa``, ``Fb``,
+    ``Fc`` (n, k) column-major."""
     m = n - 1  # intervals
     # unknowns: the path speeds v_1..v_{N-1}, the intervals' durations h_i (a linear objective; h_i (v_i + v_{i+1})
     # = 2 ds_i ties them) and, per pendulum model, the swing states z_1..z_N after each interval (multiple shooting:
@@ -246,8 +202,8 @@ def _problem(n: int, rows: tuple[tuple[bool, ...], ...], with_peak: bool, max_it
     w_v = ca.SX.sym("v", n - 2)
     w_h = ca.SX.sym("h", m)
     w_z = [ca.SX.sym(f"z{k}", 4, m) for k in range(len(ROBUST_LENGTHS))]
-    ds, d = ca.SX.sym("ds", m), ca.SX.sym("d", 2, n)
-    pend = [ca.SX.sym(f"pendulum{k}", 12) for k in range(len(ROBUST_LENGTHS))]
+    ds, d = ca.SX.sym("ds", m), ca.SX.sym("d", 3, n)
+    pend = [ca.SX.sym(f"pendulum{k}", 3) for k in range(len(ROBUST_LENGTHS))]
     coeffs = [[ca.SX.sym(f"{name}{r}", n, len(mask) // 2) for name in ("fa", "fb", "fc")]
               for r, mask in enumerate(rows)]
     v = ca.vertcat(0.0, w_v, 0.0)
@@ -259,12 +215,14 @@ def _problem(n: int, rows: tuple[tuple[bool, ...], ...], with_peak: bool, max_it
             for side, (lo, hi) in enumerate(((0, n - 1), (1, n))):  # the interval's start and end grid points
                 if mask[2 * col + side]:
                     g.append(fa[lo:hi, col] * u + fb[lo:hi, col] * x[lo:hi] + fc[lo:hi, col])
-    step = _pendulum_step().map(m)
+    step = pendulum_step().map(m)
+    w_tip = d * ca.repmat(v.T, 3, 1)  # the tip's velocity (m/s) at the grid points
     for z, p in zip(w_z, pend, strict=True):
         z_prev = ca.horzcat(ca.SX.zeros(4, 1), z[:, :-1])  # hanging still at the start
-        g.append(ca.vec(z - step(z_prev, v[:-1].T, v[1:].T, d[:, :-1], d[:, 1:], w_h.T, ca.repmat(p, 1, m))))
+        g.append(ca.vec(z - step(z_prev, w_tip[:, :-1], w_tip[:, 1:], w_h.T, ca.repmat(p, 1, m))))
         theta, rate = z[[0, 2], -1], z[[1, 3], -1]  # at rest at the end: theta' = r
-        quad = (rate + p[10] * theta) / p[11]
+        sigma = 0.5 * p[1]
+        quad = (rate + sigma * theta) / ca.sqrt(p[2] / p[0] - sigma * sigma)  # Pendulum.quadrature
         g.append(ca.sumsqr(theta) + ca.sumsqr(quad))
     if with_peak:  # the nominal swing during the motion, at the grid points
         nominal = w_z[ROBUST_LENGTHS.index(0.0)]
@@ -315,9 +273,9 @@ def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pen
     n = grid.size
     ds = np.diff(grid)
     x_max, rows = _linear_rows(limits, path, grid)
-    dp = tip_velocity(crane, path(grid), path(grid, 1))[:, :2]  # tip velocity (m/s) per unit path speed
+    dp = tip_velocity(crane, path(grid), path(grid, 1))  # tip velocity (m/s) per unit path speed
     m = n - 1
-    pendulums = [_pendulum_values(replace(pendulum, length_m=pendulum.length_m * (1.0 + dl))) for dl in ROBUST_LENGTHS]
+    pendulums = [replace(pendulum, length_m=pendulum.length_m * (1.0 + dl)).parameters() for dl in ROBUST_LENGTHS]
     imposed = tuple(
         tuple(bool(np.any(fa[lo:hi, col] != 0.0) or np.any(fb[lo:hi, col] != 0.0))
               for col in range(fa.shape[1]) for lo, hi in ((0, n - 1), (1, n)))
@@ -331,8 +289,9 @@ def settled_law(law: TimeLaw, limits: Sequence[Limit], crane: Any, pendulum: Pen
     v_zvd = law.shaped(zvd_impulses(pendulum)).speeds_at(grid)
     v0 = np.concatenate([[0.0], np.clip(v_zvd[1:-1], MIN_SPEED, v_hi), [0.0]])
     h0 = 2.0 * ds / (v0[:-1] + v0[1:])
-    accumulate = _swing_accumulator(m)
-    z0 = [np.asarray(accumulate(np.zeros(4), v0[:-1], v0[1:], dp[:-1].T, dp[1:].T, h0, np.tile(p[:, None], m)))
+    accumulate = swing_accumulator(m)
+    w0 = dp * v0[:, None]
+    z0 = [np.asarray(accumulate(np.zeros(4), w0[:-1].T, w0[1:].T, h0[None, :], np.tile(p[:, None], m)))
           .ravel(order="F") for p in pendulums]
     n_z = 4 * m * len(ROBUST_LENGTHS)
     lbg, ubg = problem.bounds(tolerance_rad, peak_rad)

@@ -1,9 +1,9 @@
 """The minimum-time law with the swing in the problem (motionlib.planning.settled_law).
 
 References: TOPPRA's time-optimal law under the same limits (a lower bound on the duration), the swing
-predicted from the law's 5 ms joint samples with scipy's exact first-order-hold discretisation
-(motionlib.planning.swing, independent of the problem's own grid-interval integration), the limits'
-ratios on the samples, and scipy.signal.cont2discrete for one interval of the pendulum.
+predicted from the law's 5 ms joint samples (motionlib.planning.swing, itself checked against solve_ivp in
+test_swing.py; independent of the problem's 80-point grid), the limits' ratios on the samples, and scipy's
+matrix exponential for one interval of the pendulum.
 """
 
 from __future__ import annotations
@@ -16,11 +16,9 @@ from motionlib.model.limits import limits_for
 from motionlib.planning.settled_law import (
     SWING_MARGIN,
     SettledLawStatus,
-    _pendulum_step,
-    _pendulum_values,
     settled_law,
 )
-from motionlib.planning.swing import Pendulum, predict_swing
+from motionlib.planning.swing import Pendulum, pendulum_step, predict_swing
 from motionlib.planning.time_law import TimeLaw
 from motionlib.planning.timing import sample_times, time_scale
 
@@ -62,7 +60,7 @@ def test_settled_law_arrives_still_within_the_limits_and_no_faster_than_toppra(l
     assert settled.base_duration_s < 1.6 * law.base_duration_s
     t, q, qd, qdd = samples(settled)
     swing = predict_swing(lab, t, q, qd, pendulum, TOL)
-    assert swing.residual_rad <= 1.1 * SWING_MARGIN * TOL  # scipy's exact FOH on 5 ms samples, not the grid's
+    assert swing.residual_rad <= 1.1 * SWING_MARGIN * TOL  # 5 ms samples, not the grid's
     assert swing.peak_rad <= 0.2 * 1.1  # bounded at the grid points (MAX_GRID): a few per cent more between them
     grid, _ = settled.grid_speeds()
     at_grid = np.searchsorted(t, np.interp(grid, settled.evaluate(t, 0), t))  # samples nearest the grid points
@@ -90,21 +88,23 @@ def test_a_law_not_at_rest_is_refused(lab, motion):
         res.raise_for_status()
 
 
-@pytest.mark.parametrize(("h", "v0", "v1"), [(0.02, 0.3, 0.5), (0.7, 0.0, 0.2), (2.5, 1.0, 0.0)])
-def test_pendulum_interval_is_the_exact_solution(h, v0, v1):
-    """One interval of the problem's pendulum (closed-form ``e^(A h)`` and input integrals) against the
-    variation-of-constants integral by Simpson's rule with scipy's matrix exponential."""
+@pytest.mark.parametrize(("h", "w0z", "w1z"), [(0.02, 0.3, 0.25), (0.7, 0.0, 1.2), (2.5, 1.0, -0.5)])
+def test_pendulum_interval_is_the_exact_solution(h, w0z, w1z):
+    """One interval of the pendulum (closed-form ``e^(A h)`` and input integrals, the stiffness from the tip's
+    vertical acceleration) against the variation-of-constants integral by Simpson's rule with scipy's matrix
+    exponential."""
     from scipy.integrate import simpson
     from scipy.linalg import expm
 
     pendulum = Pendulum(1.1, 0.4)
-    a_mat, b_mat, _, _ = pendulum.system()
-    d0, d1 = np.array([0.8, -0.3]), np.array([0.6, 0.2])
+    g_e = pendulum.gravity_m_s2 + (w1z - w0z) / h
+    a_mat = np.array([[0.0, 1.0], [-g_e / pendulum.length_m, -pendulum.damping_per_s]])
+    b_vec = np.array([-1.0, pendulum.damping_per_s]) / pendulum.length_m
+    w0, w1 = np.array([0.8, -0.3, w0z]), np.array([0.6, 0.2, w1z])
     z0 = np.array([0.05, -0.02, 0.01, 0.03])
-    out = np.asarray(_pendulum_step()(z0, v0, v1, d0, d1, h, _pendulum_values(pendulum))).ravel()
+    out = np.asarray(pendulum_step()(z0, w0, w1, h, pendulum.parameters())).ravel()
     tau = np.linspace(0.0, h, 2001)
     for axis in range(2):
-        w0, w1 = d0[axis] * v0, d1[axis] * v1
-        integrand = np.array([expm(a_mat * (h - s)) @ b_mat[:, 0] * (w0 + (w1 - w0) * s / h) for s in tau])
+        integrand = np.array([expm(a_mat * (h - s)) @ b_vec * (w0[axis] + (w1[axis] - w0[axis]) * s / h) for s in tau])
         exact = expm(a_mat * h) @ z0[2 * axis : 2 * axis + 2] + simpson(integrand, x=tau, axis=0)
         np.testing.assert_allclose(out[2 * axis : 2 * axis + 2], exact, rtol=1e-8, atol=1e-12)

@@ -1,8 +1,9 @@
 """The grapple pendulum of planning (motionlib.planning.swing) and the shaped time laws (time_law, shaping).
 
-References: closed forms of the linear pendulum (a constant-acceleration pulse, the free damped swing, the
-zero-vibration shaper), TOPPRA's own constant-acceleration parametrisation, and properties of the shaped law
-checked on dense samples (hypothesis).
+References: closed forms of the linear pendulum (a constant-acceleration pulse, also with a vertical
+acceleration, the free damped swing, the zero-vibration shaper), scipy's solve_ivp on the pendulum with a
+pivot accelerating in 3-D, TOPPRA's own constant-acceleration parametrisation, and properties of the shaped
+law checked on dense samples (hypothesis).
 """
 
 from __future__ import annotations
@@ -18,16 +19,17 @@ from hypothesis import strategies as st
 from motionlib.errors import InputError
 from motionlib.model.kinematics import Crane
 from motionlib.planning.shaping import Shaper, shapers
-from motionlib.planning.swing import Pendulum, swing_response
+from motionlib.planning.swing import MIN_GRAVITY_FRACTION, Pendulum, swing_response
 from motionlib.planning.time_law import TimeLaw
 
 G = 9.81
 DT = 0.005
 
 
-def _pulse_velocity(t: np.ndarray, a: float, tau: float) -> np.ndarray:
-    """Tip velocity (N, 2) of a constant acceleration ``a`` along x for ``tau`` seconds from rest."""
-    return np.column_stack([a * np.clip(t, 0.0, tau), np.zeros_like(t)])
+def _pulse_velocity(t: np.ndarray, a: float, tau: float, a_z: float = 0.0) -> np.ndarray:
+    """Tip velocity (N, 3) of a constant acceleration ``a`` along x (and ``a_z`` up) for ``tau`` seconds from rest."""
+    ramp = np.clip(t, 0.0, tau)
+    return np.column_stack([a * ramp, np.zeros_like(t), a_z * ramp])
 
 
 @pytest.mark.parametrize("tau", [0.3, 0.6, 1.1])
@@ -43,6 +45,56 @@ def test_pulse_residual_matches_the_undamped_closed_form(tau):
     inside = t <= tau
     np.testing.assert_allclose(theta[inside, 0], -a / G * (1.0 - np.cos(pend.omega_n * t[inside])), atol=1e-7)
     assert np.all(theta[:, 1] == 0.0)
+
+
+@pytest.mark.parametrize("a_z", [-3.0, 2.5, -9.0])
+def test_a_vertical_acceleration_changes_the_pendulum_as_the_closed_form(a_z):
+    """During a pulse that also accelerates the tip vertically the swing is -(a / g_e) (1 - cos(omega t)),
+    omega = sqrt(g_e / L), g_e = g + a_z: a lift stiffens the pendulum, a descent softens it; near free fall
+    (-9 m/s^2) g_e is held at the guard's MIN_GRAVITY_FRACTION g."""
+    pend = Pendulum(1.1, 0.0)
+    a, tau = 1.5, 1.2
+    t = np.arange(0.0, tau + DT / 2, DT)
+    theta, rate = swing_response(t, _pulse_velocity(t, a, tau, a_z), pend)
+    g_e = max(G + a_z, MIN_GRAVITY_FRACTION * G)
+    omega = math.sqrt(g_e / pend.length_m)
+    np.testing.assert_allclose(theta[:, 0], -a / g_e * (1.0 - np.cos(omega * t)), atol=1e-9)
+    np.testing.assert_allclose(rate[:, 0], -a / g_e * omega * np.sin(omega * t), atol=1e-8)
+
+
+def test_swing_of_a_tip_moving_in_3d_matches_an_ode_solver():
+    """A tip moving out, sideways and up and down (smooth, from rest to rest) against scipy's solve_ivp on (1)
+    with the pivot's acceleration; with constant gravity the same motion ends several times off."""
+    from scipy.integrate import solve_ivp
+
+    pend = Pendulum(1.1, 0.4)
+    duration = 4.0
+    t = np.arange(0.0, duration + DT / 2, DT)
+
+    def accel(tt):  # rest to rest: each axis a full sine period of acceleration
+        w = 2.0 * np.pi / duration
+        return np.array([2.0 * np.sin(w * tt), 1.0 * np.sin(2.0 * w * tt), -4.0 * np.sin(w * tt)])
+
+    def vel(tt):
+        w = 2.0 * np.pi / duration
+        return np.array([2.0 * (1 - np.cos(w * tt)) / w, 1.0 * (1 - np.cos(2 * w * tt)) / (2 * w),
+                         -4.0 * (1 - np.cos(w * tt)) / w])
+
+    theta, rate = swing_response(t, vel(t).T, pend)
+
+    def rhs(tt, x, vertical):
+        ax, ay, az = accel(tt)
+        w2 = (G + (az if vertical else 0.0)) / pend.length_m
+        c, length = pend.damping_per_s, pend.length_m
+        return [x[2], x[3], -w2 * x[0] - ax / length - c * x[2], -w2 * x[1] - ay / length - c * x[3]]
+
+    for vertical in (True, False):
+        sol = solve_ivp(rhs, (0.0, duration), np.zeros(4), t_eval=t, args=(vertical,), rtol=1e-10, atol=1e-12)
+        if vertical:
+            np.testing.assert_allclose(theta, sol.y[:2].T, atol=2e-5)  # the first-order hold of a sine, 5 ms steps
+            np.testing.assert_allclose(rate, sol.y[2:].T, atol=1e-4)
+        else:
+            assert np.abs(theta[-1] - sol.y[:2, -1]).max() > 0.01  # the vertical acceleration matters here
 
 
 def test_damped_free_swing_amplitude_is_the_closed_form_envelope():

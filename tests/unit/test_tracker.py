@@ -220,16 +220,17 @@ def test_the_plans_clock_waits_for_a_held_tip(planned):
 
 def test_swing_reference_is_the_pendulum_driven_by_the_plan(planned):
     """The planned swing against an independent integration of the linearised pendulum (scipy solve_ivp,
-    driven by the tip acceleration of the plan's samples by finite differences); none after the plan."""
+    driven by the tip acceleration of the plan's samples by finite differences, the vertical one in its
+    stiffness); none after the plan."""
     crane, traj = planned
     tracker = PathTracker(traj, crane)
     pend = Pendulum.from_crane(crane.model)
     tip = crane.fk_batch(traj.q)
-    acc = np.gradient(np.gradient(tip[:, :2], traj.t, axis=0), traj.t, axis=0)
+    acc = np.gradient(np.gradient(tip, traj.t, axis=0), traj.t, axis=0)
 
     def rhs(t, x):
-        a = [np.interp(t, traj.t, acc[:, j]) for j in range(2)]
-        w2, c = pend.gravity_m_s2 / pend.length_m, pend.damping_per_s
+        a = [np.interp(t, traj.t, acc[:, j]) for j in range(3)]
+        w2, c = (pend.gravity_m_s2 + a[2]) / pend.length_m, pend.damping_per_s
         return [x[2], x[3], -w2 * x[0] - c * x[2] - a[0], -w2 * x[1] - c * x[3] - a[1]]
 
     sol = solve_ivp(rhs, (0.0, traj.t[-1]), [0.0, 0.0, 0.0, 0.0], t_eval=traj.t, max_step=0.005, rtol=1e-8)
