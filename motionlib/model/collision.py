@@ -161,6 +161,12 @@ def obstacle_object(obstacle: Obstacle) -> fcl.CollisionObject:
     return fcl.CollisionObject(obstacle_geometry(obstacle), tf)
 
 
+def _segment_box(a: np.ndarray, b: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners (n, 3) (m) of the axis-aligned boxes of segments ``a``-``b`` (n, 3), grown by ``reach``
+    (m)."""
+    return np.minimum(a, b) - reach, np.maximum(a, b) + reach
+
+
 class CollisionChecker:
     """Collision and clearance queries of one crane in one scene.
 
@@ -444,8 +450,7 @@ class CollisionChecker:
         segments = [(self.boom, pivot, jib_pivot), (self.jib, jib_pivot, jib_end), (self.telescope, jib_end, tip)]
         yaw = self.crane.log_yaw(qs) if qs.shape[1] == 5 else None  # the log along its yaw q1 + q5
         hit, maybe, hanging_boxes = self._hanging_screen(tip, loaded, yaw, pad, refine)
-        boom_lo = np.minimum(pivot, jib_pivot) - self._boom_self.radius
-        boom_hi = np.maximum(pivot, jib_pivot) + self._boom_self.radius
+        boom_lo, boom_hi = _segment_box(pivot, jib_pivot, self._boom_self.radius)
         for lo, hi in hanging_boxes:
             maybe |= np.all((lo <= boom_hi) & (hi >= boom_lo), axis=1)
         for part, a, b in segments:
@@ -468,19 +473,17 @@ class CollisionChecker:
         (m) as in :meth:`_batch_screen` (and ``refine`` as there). The log lies along ``yaw`` (n,) (rad) when given,
         else along the tips' headings."""
         ux, uy = self._heading_batch(tip) if yaw is None else (np.cos(yaw), np.sin(yaw))
-        col_a, col_b = self._column_segment
-        col_lo = np.minimum(col_a, col_b) - self._column_radius
-        col_hi = np.maximum(col_a, col_b) + self._column_radius
+        col_a, col_b = (np.asarray(end, dtype=np.float64) for end in self._column_segment)
+        col_lo, col_hi = _segment_box(col_a, col_b, self._column_radius)
         hit = np.zeros(tip.shape[0], dtype=bool)
         maybe = np.zeros(tip.shape[0], dtype=bool)
         boxes = []
         for part in self._hanging[loaded]:
             a, b = (np.stack(e, axis=1) for e in self._hang(part, tip[:, 0], tip[:, 1], tip[:, 2], ux, uy))
-            lo = np.minimum(a, b) - (part.radius + pad)
-            hi = np.maximum(a, b) + (part.radius + pad)
+            lo, hi = _segment_box(a, b, part.radius + pad)
             boxes.append((lo, hi))
             hit |= lo[:, 2] < self._ground_z
-            maybe |= self._segments_near_obstacles(a, b, part.radius + pad, refine)
+            maybe |= self._segments_near_obstacles(a, b, part.radius + pad, refine, (lo, hi))
             maybe |= np.all((lo <= col_hi) & (hi >= col_lo), axis=1)
         return hit, maybe, boxes
 
@@ -527,8 +530,11 @@ class CollisionChecker:
         hit, maybe, _ = self._hanging_screen(tip, bool(loaded), None, pad, bool(refine))
         return ~(hit | maybe)
 
-    def _segments_near_obstacles(self, a: np.ndarray, b: np.ndarray, reach: float, refine: bool) -> np.ndarray:
+    def _segments_near_obstacles(self, a: np.ndarray, b: np.ndarray, reach: float, refine: bool,
+                                 box: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
         """Whether each segment ``a``-``b`` (n, 3) (m) may come within ``reach`` (m) of an obstacle (n,) bool.
+
+        ``box``: the segments' :func:`_segment_box` for ``reach`` when the caller has it already.
 
         Bounds, each tried on the segments the one before leaves near: the segment's box grown by ``reach`` misses
         every obstacle's axis-aligned box; its box in each obstacle's frame misses the obstacle's
@@ -539,7 +545,7 @@ class CollisionChecker:
         """
         if not self._obstacles:
             return np.zeros(a.shape[0], dtype=bool)
-        lo, hi = np.minimum(a, b) - reach, np.maximum(a, b) + reach
+        lo, hi = _segment_box(a, b, reach) if box is None else box
         near = np.any(np.all((lo[:, None, :] <= self._obstacle_hi[None]) & (hi[:, None, :] >= self._obstacle_lo[None]),
                              axis=2), axis=1)
         rows = np.flatnonzero(near)

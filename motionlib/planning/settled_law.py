@@ -57,7 +57,7 @@ import numpy as np
 from ..errors import PlanningError
 from ..model.limits import Limit
 from .shaping import zvd_impulses
-from .swing import Pendulum, pendulum_step, swing_accumulator, tip_velocity
+from .swing import Pendulum, free_swing_quadrature, pendulum_step, swing_accumulator, tip_velocity
 from .time_law import TimeLaw
 
 #: The residual swing is bounded at this fraction of the planner's tolerance: room for the jerk box and for
@@ -221,8 +221,7 @@ def _problem(n: int, rows: tuple[tuple[bool, ...], ...], with_peak: bool, max_it
         z_prev = ca.horzcat(ca.SX.zeros(4, 1), z[:, :-1])  # hanging still at the start
         g.append(ca.vec(z - step(z_prev, w_tip[:, :-1], w_tip[:, 1:], w_h.T, ca.repmat(p, 1, m))))
         theta, rate = z[[0, 2], -1], z[[1, 3], -1]  # at rest at the end: theta' = r
-        sigma = 0.5 * p[1]
-        quad = (rate + sigma * theta) / ca.sqrt(p[2] / p[0] - sigma * sigma)  # Pendulum.quadrature
+        quad = free_swing_quadrature(theta, rate, p)
         g.append(ca.sumsqr(theta) + ca.sumsqr(quad))
     if with_peak:  # the nominal swing during the motion, at the grid points
         nominal = w_z[ROBUST_LENGTHS.index(0.0)]

@@ -41,6 +41,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -134,7 +135,7 @@ class Pendulum:
 
     def quadrature(self, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
         """``u = (theta' + c theta / 2) / omega_d`` (rad), elementwise: the free swing is ``theta + i u`` rotating."""
-        return (theta_dot + self.decay_per_s * theta) / self.omega_d
+        return free_swing_quadrature(theta, theta_dot, self.parameters())
 
     def amplitude(self, theta: np.ndarray, theta_dot: np.ndarray) -> np.ndarray:
         """Amplitude ``sqrt(theta^2 + u^2)`` (rad) of the free swing (:meth:`quadrature`), elementwise."""
@@ -147,6 +148,13 @@ class Pendulum:
         if self.decay_per_s == 0.0:
             return math.inf
         return math.log(amplitude_rad / tolerance_rad) / self.decay_per_s
+
+
+def free_swing_quadrature(theta: Any, theta_dot: Any, p: Any) -> Any:
+    """:meth:`Pendulum.quadrature` of the pendulum ``p = (L, c, g)`` (:meth:`Pendulum.parameters`), for numpy arrays
+    and CasADi expressions alike: ``(theta' + c theta / 2) / sqrt(g / L - c^2 / 4)`` (rad)."""
+    sigma = 0.5 * p[1]
+    return (theta_dot + sigma * theta) / (p[2] / p[0] - sigma * sigma) ** 0.5
 
 
 def tip_velocity(crane: Crane, q: np.ndarray, qd: np.ndarray) -> np.ndarray:

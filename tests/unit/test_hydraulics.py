@@ -225,6 +225,42 @@ def test_swinging_load_acts_back_on_the_telescope(lab):
     assert np.array_equal(still.q, q0)
 
 
+def _swing_period(sim: SimulatedCrane, direction: np.ndarray, seconds: float = 12.0) -> float:
+    """Median period (s) of the grapple's offset from the tip along ``direction`` (3,), valves closed."""
+    sim.set_grapple(0.05 * direction + np.array([0.0, 0.0, -1.0]))
+    x = []
+    for _ in range(int(seconds / 0.005)):
+        sim.advance([0.0, 0.0, 0.0, 0.0], 0.005)
+        x.append(float(np.subtract(sim.grapple, sim.tip) @ direction))
+    up = np.flatnonzero(np.diff(np.sign(x)) > 0) * 0.005
+    return float(np.median(np.diff(up)))
+
+
+def test_swing_across_the_boom_rings_with_the_slew_as_two_coupled_masses():
+    """On the forwarder's per-joint plant the slew (0.80 Hz) is soft enough that the grapple swinging across the boom
+    moves it: the two ring as two masses on springs. Linear model, tip reach r, slew inertia J, oil-spring frequency
+    w_s and damping ratio zeta, grapple mass m on a rod L, in the tip's tangential displacement x = r phi and the
+    swing theta: M x'' = -M w_s^2 x - 2 zeta w_s M x' + m g theta (M = J / r^2), x'' + L theta'' = -g theta; its slow
+    mode's damped period (numpy's eigenvalues). Along the boom the stiffer joints hold the tip: the rigid-tip
+    pendulum's period."""
+    crane = Crane.load("forwarder")
+    model = crane.model
+    q0 = np.array([1.2, 0.5, -0.6, 1.0])
+    prm = SimParams(natural_freq_hz=None, deadband_frac=0.0, swing_damping_per_s=0.0)
+    tip = crane.fk_batch(q0[None])[0]
+    reach, g, length, mass = math.hypot(tip[0], tip[1]), prm.gravity_m_s2, model.grapple_length, model.load_mass
+    w_s, big_m = model.natural_frequencies_rad_s()[0], model.joint_inertia[0] / reach**2
+    x_dd = np.array([-w_s**2, mass * g / big_m, -2.0 * prm.damping_ratio * w_s, 0.0])  # over (x, theta, x', theta')
+    a_mat = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0], x_dd, -(x_dd + [0.0, g, 0.0, 0.0]) / length])
+    slow = np.abs(np.linalg.eigvals(a_mat).imag).min()
+    coupled, rigid = 2 * math.pi / slow, 2 * math.pi * math.sqrt(length / g)
+    assert coupled > 1.08 * rigid  # the coupling is large enough to tell apart
+    tangential = np.array([-math.sin(q0[0]), math.cos(q0[0]), 0.0])
+    radial = np.array([math.cos(q0[0]), math.sin(q0[0]), 0.0])
+    assert _swing_period(SimulatedCrane(crane, q0, prm), tangential) == pytest.approx(coupled, rel=0.005)
+    assert _swing_period(SimulatedCrane(crane, q0, prm), radial) == pytest.approx(rigid, rel=0.005)
+
+
 def _ratios(crane: Crane, sim: SimulatedCrane, j: int, commands, dt: float) -> tuple[float, float]:
     """Largest v_j / qd_max_j and v_j / qd_min_j over ``commands`` (joint j's speeds), each held ``dt``."""
     up = down = 0.0
