@@ -15,8 +15,8 @@ tip's horizontal acceleration (m/s^2) in that axis and ``a_z`` its vertical acce
 This is the pendulum whose pivot accelerates (e.g. Abdel-Rahman, Nayfeh & Masoud 2003, *Dynamics and
 control of cranes: a review*, J. Vibration and Control 9(7), the hoisting/luffing crane models): a tip
 that brakes a descent or starts a lift stiffens the pendulum, one that starts a descent softens it.
-With constant gravity alone a loaded lab motion's residual swing read 0.013 rad where the plant's
-pendulum along the same tip path ends at 0.059 rad (planner 10; docs/trajectory-format.md). At rest
+With constant gravity alone a loaded forwarder move's residual swing read 0.013 rad where the plant's
+pendulum along the same tip path ends at 0.059 rad (planner 10; docs/runtime.md). At rest
 (``a_z = 0``) small swings decay as ``exp(-c t / 2)`` with the damped frequency
 ``omega_d = sqrt(g / L - c^2 / 4)`` (the plant's docstring: period ``2 pi sqrt(L / g)`` undamped). The
 rod's angle from the vertical, the plant's ``swing_rad``, is ``|(theta_x, theta_y)|`` to first order.
