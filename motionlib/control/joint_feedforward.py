@@ -26,8 +26,9 @@ A joint slower than the preview assumes (the forwarder's slew at 0.8 Hz: ``2 zet
 ``1 / omega^2`` = 0.04 s^2) gets the rest of its lead; a faster one gets less. Without (1) the slew stores the
 plan's braking in its oil spring and rings after the end, which swings the grapple up again (docs/runtime.md,
 "Per-joint natural frequencies"). Left out: the hanging mass's inertia along the rod (``m b b^T`` of
-:mod:`motionlib.sim.hydraulics`, step 5; zero for the slew, whose axis is parallel to the hanging rod) and the
-pump's sharing (the plan keeps the pump's flow within its limit).
+:mod:`motionlib.sim.hydraulics`, step 5; zero for the slew, whose axis is parallel to the hanging rod), the
+pump's sharing (the plan keeps the pump's flow within its limit) and the tip's vertical acceleration in the
+rod's pull (``M g theta``, where the swing ``theta`` itself has it: ``M (g + a_z) theta`` would be the rod force).
 """
 
 from __future__ import annotations

@@ -196,6 +196,9 @@ class CollisionChecker:
         links = {c.name: c for c in crane.link_capsules(np.zeros(4))}
         self._column_segment = (tuple(links["column"].a), tuple(links["column"].b))
         self._column_radius = links["column"].radius
+        #: The column's box (lower, upper corners (3,)), for the hanging parts' screen (:meth:`_hanging_screen`).
+        col_a, col_b = (np.asarray(end, dtype=np.float64) for end in self._column_segment)
+        self._column_box = _segment_box(col_a, col_b, self._column_radius)
         self.boom = _MovingCapsule("boom", links["boom"].radius + self.margin)
         self.jib = _MovingCapsule("jib", links["jib"].radius + self.margin)
         self.telescope = _MovingCapsule("telescope", links["telescope"].radius + self.margin)
@@ -473,8 +476,7 @@ class CollisionChecker:
         (m) as in :meth:`_batch_screen` (and ``refine`` as there). The log lies along ``yaw`` (n,) (rad) when given,
         else along the tips' headings."""
         ux, uy = self._heading_batch(tip) if yaw is None else (np.cos(yaw), np.sin(yaw))
-        col_a, col_b = (np.asarray(end, dtype=np.float64) for end in self._column_segment)
-        col_lo, col_hi = _segment_box(col_a, col_b, self._column_radius)
+        col_lo, col_hi = self._column_box
         hit = np.zeros(tip.shape[0], dtype=bool)
         maybe = np.zeros(tip.shape[0], dtype=bool)
         boxes = []
