@@ -158,8 +158,10 @@ class PlanStatus(Enum):
 #: when the joint candidates give no plan (``PlanOptions.jointspace_baseline``, ``PlanOptions.tip_path_always``);
 #: the minimum-time joint motion's clearance gradients come from fcl's closest points (were forward differences);
 #: 11: the swing model (the settled law's and the predicted residual) takes the tip's vertical acceleration into the
-#: pendulum's stiffness, ``(g + a_z) / L`` (:mod:`~motionlib.planning.swing`; was ``g / L``).
-PLANNER_VERSION = 11
+#: pendulum's stiffness, ``(g + a_z) / L`` (:mod:`~motionlib.planning.swing`; was ``g / L``); 12: a settled law
+#: whose motion through the jerk box leaves more swing than the tolerance goes through a halved box
+#: (:data:`SHORTEST_FALLBACK_BOX_S`; was: the input shapers).
+PLANNER_VERSION = 12
 
 #: Name of the tip-space path candidate (today's OMPL tip path).
 TIP_SOURCE = "tip-rrt"
@@ -203,6 +205,10 @@ SETTLED_MAX_RESTRETCH = 2.0
 #: or a limit by more than ``SETTLED_MAX_RESTRETCH`` (forwarder random#16: the boom's acceleration 3.5x on 80 points;
 #: on 160, 1.08x, then solved again under scaled limits, it arrives still in 24.5 s, where the shapers left 0.044 rad).
 SETTLED_REFINE = 2
+#: Shortest jerk box (s) the settled law's motion falls back to, by halving ``PlanOptions.jerk_box_s``, when the
+#: full box leaves more swing than the tolerance (:meth:`Planner._boxed_settled`): 0.3 s keeps the default 0.4 s
+#: box as it is and lets the per-joint plant's 1.25 s box (the forwarder's slew) fall to 0.63 and 0.31 s.
+SHORTEST_FALLBACK_BOX_S = 0.3
 # (safety factor on velocity/acceleration/flow limits, TOPPRA minimum grid points) per timing attempt
 TIMING_ATTEMPTS: tuple[tuple[float, int], ...] = ((1.0, 100), (0.97, 200), (0.94, 400), (0.9, 400))
 
@@ -966,8 +972,7 @@ class Planner:
                                       **settled.diagnostics}
             if settled.law is None:
                 return None
-            motion = shape(settled.law, Shaper("settled", ((0.0, 1.0),), o.jerk_box_s), self.crane, self.pendulum,
-                           o.swing_tolerance_rad, o.dt_s)
+            motion = self._boxed_settled(settled.law, details)
             label = f"settled (limits x {scale:.3f}, {settled.diagnostics['n_grid']} points)"
             refinable = max_grid == MAX_GRID and settled.diagnostics["n_grid"] == max_grid  # thinned, not refined
             if motion.swing.residual_rad > o.swing_tolerance_rad:
@@ -987,6 +992,29 @@ class Planner:
                 return None
             max_grid = SETTLED_REFINE * MAX_GRID
         return None
+
+    def _boxed_settled(self, law: TimeLaw, details: dict[str, Any]) -> ShapedMotion:
+        """``law`` through the jerk box (``PlanOptions.jerk_box_s``) or, when that leaves more swing than the
+        tolerance, through the longest of its halvings, down to :data:`SHORTEST_FALLBACK_BOX_S`, that does not.
+
+        The box is not linear in the tip's acceleration on a curved path (``p'(s) s_dd + p''(s) s_d^2``): on the
+        forwarder's loaded cycle moves a 1.25 s box turns the law's 0.01 rad into 0.05 rad, and the shapers
+        tried after it leave as much at twice the added time (docs/trajectory-format.md, "Swing shaping"). The
+        shorter box is named in the shaper (``settled-box0.313``); ``details["settled_boxes"]`` lists each box tried
+        with its motion's residual swing (s, rad).
+        """
+        o = self.options
+        box = o.jerk_box_s
+        name = "settled"
+        tried = details["settled_boxes"] = []
+        while True:
+            motion = shape(law, Shaper(name, ((0.0, 1.0),), box), self.crane, self.pendulum, o.swing_tolerance_rad,
+                           o.dt_s)
+            tried.append((box, motion.swing.residual_rad))
+            if motion.swing.residual_rad <= o.swing_tolerance_rad or 0.5 * box < SHORTEST_FALLBACK_BOX_S:
+                return motion
+            box *= 0.5
+            name = f"settled-box{box:.3f}"
 
     def _verified_shaping(self, motion: ShapedMotion, tolerance: float | None, rejected: dict[str, str],
                           start_q: np.ndarray, goal_p: np.ndarray) -> ShapedMotion | None:
