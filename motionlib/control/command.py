@@ -38,6 +38,7 @@ S_CMD, S_AUTO, S_AUTHORITY, S_C_A, S_C_O, S_SIGMA, S_FLAGS, S_S_P, S_DEV, S_SPEE
 CONST_VECTORS: tuple[str, ...] = (
     "dv_cap", "v_lo", "v_hi", "near_lo", "near_hi", "q_lo", "q_hi", "two_a_brake", "far_hi", "far_lo",
     "w_free_lo", "w_free_hi", "w_lo", "w_hi", "w_width", "w_nom", "activity_rate", "mid", "inv_span2",
+    "valve_deadband",
 )
 #: Scalar constants of :func:`command_consts`, after the vectors.
 CONST_SCALARS: tuple[str, ...] = (
@@ -45,9 +46,9 @@ CONST_SCALARS: tuple[str, ...] = (
     "sigma_threshold", "damping_max", "dt", "traded", "joint_operation", "swing_dead",
 )
 (K_DV_CAP, K_V_LO, K_V_HI, K_NEAR_LO, K_NEAR_HI, K_Q_LO, K_Q_HI, K_TWO_AB, K_FAR_HI, K_FAR_LO, K_W_FREE_LO,
- K_W_FREE_HI, K_W_LO, K_W_HI, K_W_WIDTH, K_W_NOM, K_ACTIVITY, K_MID, K_INV_SPAN2) = range(0, 76, 4)
+ K_W_FREE_HI, K_W_LO, K_W_HI, K_W_WIDTH, K_W_NOM, K_ACTIVITY, K_MID, K_INV_SPAN2, K_VALVE_DEAD) = range(0, 80, 4)
 (K_LAG, K_FLOOR, K_RAISE, K_LOWER, K_CENTER, K_SWING, K_SWAY_MAX, K_SIGMA_THR, K_DAMP_MAX, K_DT, K_TRADED,
- K_JOINT_OP, K_SWING_DEAD) = range(76, 89)
+ K_JOINT_OP, K_SWING_DEAD) = range(80, 93)
 
 # flags (motionlib.control.control_types.Flag) and authorities (Authority) as plain ints for compiled code
 F_VEL, F_ACC, F_POS, F_GUARD, F_DAMPED = 16, 32, 64, 128, 256
@@ -335,9 +336,29 @@ def command_law(c, state, mixer_consts, mixer_state, jac, q, qd, swing_x: float,
 
 
 @njit(cache=True)
+def valve_deadband_inverse(u: float, d: float) -> float:
+    """The command (rad/s or m/s) under which a valve that passes no flow below ``d`` gives ``u``: ``u`` itself where
+    ``|u| >= d``, ``clip(2 u, -d, d)`` below (``ControllerParams.valve_deadband_frac``).
+
+    A valve with a dead band passes nothing for ``|u| < d`` and ``u`` above (:mod:`motionlib.sim.plant`, step 1), so a
+    position loop stalls where its command falls below ``d`` (on the forwarder's per-joint plant, whose slow slew caps
+    the position gain at 0.9 1/s, 1.1 cm from the end point, past the tracker's 1 cm arrival). The inverse opens the
+    valve from ``|u| = d / 2`` on and is continuous (no jump at zero for the command to chatter across), which halves
+    the stall distance; ``d = 0``: ``u``.
+    """
+    if d <= 0.0 or abs(u) >= d:
+        return u
+    return min(d, max(-d, 2.0 * u))
+
+
+@njit(cache=True)
 def finish_command(c, state, target, q, qd, flags: int) -> None:
-    """Limit ``target`` against the previous command in ``state`` and store the command and flags."""
+    """Raise ``target`` past the valves' dead band (:func:`valve_deadband_inverse`), limit it against the previous
+    command in ``state`` and store the command and flags."""
     prev = (state[S_CMD], state[S_CMD + 1], state[S_CMD + 2], state[S_CMD + 3])
+    d = K_VALVE_DEAD
+    target = (valve_deadband_inverse(target[0], c[d]), valve_deadband_inverse(target[1], c[d + 1]),
+              valve_deadband_inverse(target[2], c[d + 2]), valve_deadband_inverse(target[3], c[d + 3]))
     cmd, flags = limit_command(c, prev, target, q, qd, flags)
     for i in range(4):
         state[S_CMD + i] = cmd[i]

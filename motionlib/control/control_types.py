@@ -277,6 +277,11 @@ class ControllerParams:
         20 rows (docs/runtime.md).
     valve_lag_s : float
         The valves' spool time constant (s) of the joint model: the plant's ``SimParams.tau_s``.
+    valve_deadband_frac : float
+        The valves' dead band as a fraction of each joint's speed limit (the smaller of its two directions), which
+        every joint command is raised past (:func:`~motionlib.control.command.valve_deadband_inverse`); the plant's
+        ``SimParams.deadband_frac`` (0.005), a machine's identified one. 0 (default): none, as the experiment
+        was run; :meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness` sets the plant's.
     position_gain_margin : float
         Gain margin of the automation's position loops (the tracker's final convergence
         ``end_gain_per_s`` and its pull back onto the path ``lateral_gain_per_s`` are capped at the gain
@@ -312,6 +317,7 @@ class ControllerParams:
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     joint_feedforward: bool = False
     valve_lag_s: float = param(0.04, ge=0.0, le=1.0)
+    valve_deadband_frac: float = param(0.0, ge=0.0, le=0.1)
     position_gain_margin: float = param(3.0, ge=0.0)
     feedback: ForceFeedbackParams | None = None
 

@@ -196,6 +196,7 @@ class SharedController:
                 "w_lo": crane.q_min, "w_hi": crane.q_max, "w_width": prm.limit_weight_margin * span,
                 "w_nom": self._w_nom, "activity_rate": prm.operator_activity_axis * speed,
                 "mid": 0.5 * (crane.q_min + crane.q_max), "inv_span2": 1.0 / span**2,
+                "valve_deadband": prm.valve_deadband_frac * speed,
             },
             {
                 "lag": prm.lag_s, "weight_floor": prm.limit_weight_floor, "weight_raise": prm.operator_weight_raise,

@@ -43,6 +43,11 @@ from ..model.kinematics import Crane
 from ..planning.swing import Pendulum, swing_response, tip_velocity
 from ..planning.trajectory import Trajectory
 
+#: Samples (control periods) evaluated beyond each end of the table and cut off: the inverse model (1) takes the
+#: plan's third derivative and the load's second as nested central differences, and a one-sided difference at the
+#: table's last row (what ``np.gradient`` gives there) read 0.08 rad/s for the forwarder's slew at the plan's end.
+_PAD = 2
+
 
 def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequence[float], zeta: float,
                       valve_lag_s: float, preview_s: float, dt_s: float) -> np.ndarray:
@@ -78,7 +83,9 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
     if not dt_s > 0.0 or not preview_s >= 0.0:
         raise InputError(f"dt_s, preview_s: expected > 0 and >= 0, got {dt_s}, {preview_s}")
     t_plan = np.asarray(trajectory.t, dtype=np.float64)
-    t = np.arange(int(np.ceil(t_plan[-1] / dt_s)) + 1) * dt_s
+    n = int(np.ceil(t_plan[-1] / dt_s)) + 1
+    # PAD samples at rest before the start and after the end, so that every kept row's differences are central
+    t = np.arange(-_PAD, n + _PAD) * dt_s
 
     def at(times: np.ndarray, x: np.ndarray) -> np.ndarray:  # at rest before the start and after the end
         return np.column_stack([np.interp(times, t_plan, x[:, i], left=0.0, right=0.0) for i in range(4)])
@@ -98,4 +105,4 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
     qddd = np.gradient(qdd, dt_s, axis=0)
     y = qd + (2.0 * zeta / omega) * qdd + (qddd - np.gradient(load, dt_s, axis=0)) / omega ** 2
     u = y + valve_lag_s * np.gradient(y, dt_s, axis=0)
-    return np.ascontiguousarray(u - at(t + preview_s, trajectory.qd))
+    return np.ascontiguousarray((u - at(t + preview_s, trajectory.qd))[_PAD:_PAD + n])

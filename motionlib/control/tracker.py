@@ -217,8 +217,9 @@ class PathTracker:
     feedforward : ndarray, shape (n, 4), optional
         The joints' feedforward ``delta`` (rad/s, m/s) on the plan's clock every ``feedforward_dt_s`` from 0
         (:func:`~motionlib.control.joint_feedforward.joint_feedforward`, ``timing="time"`` only): while the
-        plan's clock runs, ``delta(t_ref)`` is added to the null-space reference ``z`` and ``J delta`` to
-        ``p_a``, so the resolved rate (000 eq. 2) passes it to the joints unchanged. None: no feedforward.
+        plan's clock runs within the table, ``delta(t_ref)`` is added to the null-space reference ``z`` and
+        ``J delta`` to ``p_a``, so the resolved rate (000 eq. 2) passes it to the joints unchanged; past the
+        table's end nothing. None: no feedforward.
     feedforward_dt_s : float
         Its time step (s).
 
@@ -618,9 +619,10 @@ def tracker_update(table, feedforward, consts, state, x: float, y: float, z: flo
         b0, b1 = table[k, _DQ + c], table[k + 1, _DQ + c]
         state[_Z + c] = v * (b0 + g * (b1 - b0)) + k_q * (a0 + g * (a1 - a0) - q[c])
 
-    # the joints' feedforward on the plan's clock while it runs: z + delta, p_a + J delta (000 eq. 2 passes it)
+    # the joints' feedforward on the plan's clock while it runs, within its table: z + delta, p_a + J delta (000 eq. 2
+    # passes it); after the table's end (the plan's) none, as the planned swing above
     m = feedforward.shape[0]
-    if running and m > 1:
+    if running and m > 1 and state[_T_REF] <= (m - 1) * consts[17]:
         j, f = _interval(state[_T_REF] / consts[17], m - 2)
         for c in range(4):
             d = feedforward[j, c] + f * (feedforward[j + 1, c] - feedforward[j, c])

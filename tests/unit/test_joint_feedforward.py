@@ -120,3 +120,41 @@ def test_bad_joint_models_are_refused(out_move):
         joint_feedforward(traj, crane, (1.0, 2.0, 0.0, 3.0), ZETA, TAU_V, 0.0, DT)
     with pytest.raises(InputError, match="feedforward"):
         PathTracker(traj, crane, feedforward=np.full((3, 4), np.nan))
+
+
+def test_the_tables_end_is_the_plan_followed_by_rest(out_move):
+    """The table's last rows are what the plan followed by 1 s at rest gives there (the grapple's swing left to decay):
+    the model's derivatives are central differences up to the end, not one-sided ones (which read 0.03-0.08 rad/s
+    for the slew on the forwarder's loaded cycle moves)."""
+    crane, traj = out_move
+    omega = crane.model.natural_frequencies_rad_s()[:4]
+    rest = traj.t[-1] + DT * np.arange(1, 201)
+    longer = replace(traj, t=np.concatenate([traj.t, rest]), q=np.vstack([traj.q, np.tile(traj.q[-1], (200, 1))]),
+                     qd=np.vstack([traj.qd, np.zeros((200, 4))]), qdd=np.vstack([traj.qdd, np.zeros((200, 4))]))
+    table = joint_feedforward(traj, crane, omega, ZETA, TAU_V, 0.12, DT)
+    reference = joint_feedforward(longer, crane, omega, ZETA, TAU_V, 0.12, DT)[: len(table)]
+    assert np.abs(table[-3:]).max() > 1e-3  # the end is not trivially zero
+    np.testing.assert_allclose(table, reference, atol=1e-6)
+
+
+def test_the_tracker_adds_nothing_after_the_tables_end(out_move):
+    """After the plan's clock has passed the table's end (it runs on for up to ``lead_s`` while the tip is at the end
+    point) the tracker adds no feedforward, as it holds no planned swing: before planner 12's session it kept adding
+    the table's last row, which pushed the forwarder's slew 0.08 rad/s for up to a second after a loaded move."""
+    crane, traj = out_move
+    n = int(np.ceil(traj.duration_s / DT)) + 1
+    delta = np.tile([0.01, -0.02, 0.03, 0.04], (n, 1))
+    plain, fed = PathTracker(traj, crane), PathTracker(traj, crane, feedforward=delta, feedforward_dt_s=DT)
+    q = traj.q[-1]  # the tip at the end point: the clock runs until lead_s past the plan's end
+    p = tuple(crane.fk(q))
+    t_ref = TRACKER_STATE.index("t_ref")
+    added = []
+    for k in range(n + 100):
+        for tr in (plain, fed):
+            tr.update(p, tuple(q), 0.0, k * DT)
+        added.append((fed.state[t_ref], np.subtract(fed.z, plain.z)))
+    within = [d for t, d in added if 0.0 < t <= (n - 1) * DT]
+    after = [d for t, d in added if t > (n - 1) * DT]
+    assert within and after  # both sides of the table's end were reached
+    np.testing.assert_allclose(within, np.broadcast_to(delta[0], (len(within), 4)), atol=1e-12)
+    np.testing.assert_allclose(after, 0.0, atol=1e-12)
