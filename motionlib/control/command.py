@@ -19,8 +19,8 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .control_types import Event
 from .mixer import mixer_update
 from .resolved_rate import resolve_rate_fast

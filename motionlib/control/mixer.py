@@ -59,10 +59,10 @@ import math
 from dataclasses import astuple, dataclass
 
 import numpy as np
-from numba import njit
 
 from ..checks import check_params, check_scalar, param
 from ..errors import InputError
+from ..jit import njit
 from ..model.collision import CollisionChecker
 
 Vec3 = tuple[float, float, float]

@@ -20,9 +20,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
 from ..checks import check_scalar, check_vector
+from ..jit import njit
 from ..model.fast_kinematics import Vec4
 
 _TWO_PI_3 = 2.0 * math.pi / 3.0

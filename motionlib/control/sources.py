@@ -38,10 +38,9 @@ import math
 from abc import ABC, abstractmethod
 from typing import Any
 
-from numba import njit
-
 from ..checks import check_scalar, check_vector
 from ..errors import InputError
+from ..jit import njit
 
 Vec3 = tuple[float, float, float]
 Vec4 = tuple[float, float, float, float]

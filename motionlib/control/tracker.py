@@ -85,10 +85,10 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from ..checks import check_params, check_scalar, param
 from ..errors import InputError
+from ..jit import njit
 from ..model.fast_kinematics import TipKinematics
 from ..model.kinematics import Crane
 from ..planning.spline import TipSpline

@@ -16,8 +16,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from ..jit import njit
 from .kinematics import Crane
 
 Vec3 = tuple[float, float, float]

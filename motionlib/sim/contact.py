@@ -35,9 +35,9 @@ from dataclasses import dataclass
 
 import fcl
 import numpy as np
-from numba import njit
 
 from ..checks import check_params, param
+from ..jit import njit
 from ..model.collision import obstacle_object
 from ..model.scene import Obstacle
 

@@ -41,7 +41,6 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..control.command import (
     EV_ABORT,
@@ -67,6 +66,7 @@ from ..control.mixer import GUARD_CACHE, MIXER_STATE, guard_clear
 from ..control.runlog import COLUMNS, RunLog
 from ..control.sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
 from ..control.tracker import N_TRACKER_CONSTS, NO_FEEDFORWARD, TABLE_COLUMNS, TRACKER_STATE, tracker_update
+from ..jit import njit
 from ..model.fast_kinematics import tip_point_jacobian, tip_speed
 from .hydraulics import Q, V
 from .operator_model import (

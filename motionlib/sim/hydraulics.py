@@ -70,8 +70,8 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
+from ..jit import njit
 from .pump import flow_share
 
 #: Rows of the joint state array (6, n) of :func:`actuators_substep`.

@@ -24,9 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ..control.sources import cartesian_axes, joint_axes
+from ..jit import njit
 from ..model.fast_kinematics import tip_point_jacobian
 
 #: Scalar constants of an operator, at the start of its ``consts`` array.

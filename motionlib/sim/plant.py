@@ -116,11 +116,11 @@ from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
+from ..jit import njit
 from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ, MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.hanging_body import HangingBody, HeldLog

@@ -22,7 +22,7 @@ idealisation (no pressure dynamics of the pump's regulator) is an assumption.
 
 from __future__ import annotations
 
-from numba import njit
+from ..jit import njit
 
 
 @njit(cache=True)
