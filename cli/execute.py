@@ -132,7 +132,8 @@ def execute(
                 from motionlib import execute_command
 
                 commanded = execute_command(lib, chosen.commands, command, mode=mode, operator=operator_spec,
-                                            start_q=current, options=options, log_attrs=attrs)
+                                            start_q=current, options=options, log_attrs=attrs,
+                                            selection=chosen.selection)
                 run, issued = commanded.run, commanded.issued
                 row = commanded.row if commanded.row is not None else -1
                 entry = int(lib.entry[row]) if row >= 0 else -1

@@ -15,13 +15,15 @@ from .output import emit_json
 @dataclass(frozen=True)
 class Chosen:
     """What :func:`select_row` chose: the library row (None: a script's commands choose), the run's target, the utility
-    used, the command set (with --commands) and the gaze estimate (with --gaze)."""
+    used, the command set (with --commands), the gaze estimate (with --gaze) and the command's selection (with
+    --command, for :func:`motionlib.execute_command` not to select again)."""
 
     row: int | None
     target: Any
     utility: str
     commands: Any = None
     gaze: Any = None
+    selection: Any = None
 
 
 def check_target_options(
@@ -76,7 +78,7 @@ def select_row(
             raise click.UsageError("--utility: a command selects by the utility its command set gives")
         bound = commands.command(command)
         selection = commands.select(lib, command, current).raise_for_status(f"{lib.path}: command {command}")
-        return Chosen(int(selection.indices[0]), bound.target_p, bound.utility.value, commands)
+        return Chosen(int(selection.indices[0]), bound.target_p, bound.utility.value, commands, selection=selection)
     if target is None:  # the stick script's commands choose
         return Chosen(None, None, "", commands)
     selection = lib.select_checked(target, current, utility or "time").raise_for_status(str(lib.path))

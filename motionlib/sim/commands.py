@@ -31,6 +31,7 @@ from ..control.control_types import Event, Mode, OperatorInput
 from ..control.controller import SharedController
 from ..errors import ExecutionError, InputError, ModelFileError
 from ..library.commands import CommandSet
+from ..library.selection import SelectionResult
 from ..library.store import Library
 from .execute import ExecuteOptions, RunResult, execute
 from .operators import Observation, ScriptedStick, operator_kind
@@ -192,6 +193,7 @@ def execute_command(
     start_q: Any = None,
     options: ExecuteOptions | None = None,
     log_attrs: Mapping[str, Any] | None = None,
+    selection: SelectionResult | None = None,
 ) -> CommandRunResult:
     """Run the motion bound to ``command`` (and the commands of a stick script) on the simulated crane.
 
@@ -213,6 +215,9 @@ def execute_command(
     options : ExecuteOptions, optional
     log_attrs : mapping, optional
         Extra run-log attributes.
+    selection : SelectionResult, optional
+        ``commands.select(library, command, start_q)`` when the caller has made it already (``motionlib
+        execute`` selects before it runs, to report the row): used instead of selecting again.
 
     Returns
     -------
@@ -240,7 +245,9 @@ def execute_command(
     trajectory = None
     issued: list[IssuedCommand] = []
     if first is not None:
-        selection = commands.select(library, first.name, start_q).raise_for_status(f"command {first.name}")
+        if selection is None:
+            selection = commands.select(library, first.name, start_q)
+        selection.raise_for_status(f"command {first.name}")
         row = int(selection.indices[0])
         trajectory = library.trajectory(row)
         q0 = np.asarray(start_q if start_q is not None else trajectory.q[0], dtype=np.float64)

@@ -66,6 +66,21 @@ def test_command_run_settles_at_the_bound_target(library):
     assert report["final_error_m"] < 0.02
 
 
+def test_a_command_run_selects_its_motion_once(library, monkeypatch):
+    """``execute --command`` selects before it runs (to report the row) and hands that selection to
+    ``execute_command``, which does not select again (counted on ``CommandSet.select`` itself)."""
+    calls = []
+    select = CommandSet.select
+
+    def counted(self, *args, **kwargs):
+        calls.append(args[1])
+        return select(self, *args, **kwargs)
+
+    monkeypatch.setattr(CommandSet, "select", counted)
+    report = _json("execute", library, "--commands", COMMANDS, "--command", "to-pile-left")
+    assert report["library_row"] == 0 and calls == ["to-pile-left"]
+
+
 def test_script_command_column_starts_the_bound_motions_mid_run(library, tmp_path):
     """The docs' example script: each command selects from the configuration of its moment, as a direct call does."""
     lib = Library.open(library)
