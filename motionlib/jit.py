@@ -2,8 +2,8 @@
 
 numba's on-disk cache (``cache=True``) invalidates a function when its own source file changes, but not when a
 jitted function it calls from another file does (numba's documented caching limitation, "Cache invalidation"). The
-compiled closed loop (:mod:`motionlib.sim.fast_loop`) calls the tracker, the command law, the mixer and the plant
-from eight other files, so after an edit or a ``git checkout`` of one of those it would load the old machine code:
+compiled closed loop (:mod:`motionlib.sim.fast_loop`) calls the tracker, the command law, the mixer, the plant and
+more, each from its own file, so after an edit or a ``git checkout`` of one of those it would load the old code:
 a changed tracker measured on the per-joint loading cycle ran the previous one (21.87 s a cycle instead of 18.77 s)
 until the cache was deleted.
 
