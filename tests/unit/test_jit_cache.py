@@ -17,11 +17,12 @@ def test_motionlibs_functions_cache_under_the_digest_directory_and_others_keep_n
     valve_deadband_inverse(0.1, 0.01)
     assert valve_deadband_inverse.stats.cache_path.startswith(jit.cache_dir() + "/")
 
-    @numba.njit(cache=False)
+    @numba.njit(cache=True)
     def elsewhere(x):
         return x + 1.0
 
     assert elsewhere(1.0) == 2.0
+    assert not elsewhere.stats.cache_path.startswith(jit.cache_dir())  # a function outside motionlib: numba's own
     assert numba.config.CACHE_DIR != jit.cache_dir()  # the setting was restored after motionlib's decorations
 
 
