@@ -56,7 +56,7 @@ def synthetic_library(crane: Crane, n: int, rng: np.random.Generator) -> dict[st
     start_q = starts[rng.integers(len(starts), size=n)]
 
     dq = np.abs(end_q - start_q)
-    v = np.minimum(-crane.qd_min, crane.qd_max)
+    v = crane.qd_both
     a = crane.qdd_max
     ramp = v * v / a
     t_joint = np.where(dq > ramp, dq / v + v / a, 2.0 * np.sqrt(dq / a))

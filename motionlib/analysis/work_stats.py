@@ -62,7 +62,7 @@ def joint_activity(
     if rec.sticks is not None:
         return np.abs(rec.sticks) > stick_threshold
     qd = np.gradient(rec.q, rec.t, axis=0)
-    speed = np.minimum(-rec.crane.qd_min, rec.crane.qd_max)
+    speed = rec.crane.qd_both
     return np.abs(qd) > speed_fraction * speed
 
 

@@ -171,7 +171,7 @@ class SharedController:
         self.guard = obstacle_guard
         self.kin = TipKinematics(crane)
         prm = self.params
-        speed = np.minimum(-crane.qd_min, crane.qd_max)
+        speed = crane.qd_both
         self._w_nom = tuple(prm.weights if prm.weights is not None else (speed**2).tolist())
         span = crane.q_max - crane.q_min
         margin = prm.limit_margin_frac * span

@@ -546,15 +546,20 @@ def _read_joint(j: Section, jname: str, jtype: str, position: Plausible) -> Join
 
 
 def limits_arrays(model: CraneModel, with_rotator: bool = False) -> dict[str, np.ndarray]:
-    """Joint limits as (4,) float64 arrays: q_min, q_max, qd_min, qd_max, qdd_max.
+    """Joint limits as (4,) float64 arrays: q_min, q_max, qd_min, qd_max, qdd_max, and qd_both.
 
+    ``qd_both = min(|qd_min|, qd_max)`` is the speed a joint reaches in either direction (rad/s, m/s): the scale
+    of a joint lever's full deflection, of the valves' dead band and of the resolved-rate weights.
     With ``with_rotator`` and a crane that has one, (5,) arrays with the rotator q5 last.
     """
     js = model.joints + ((model.rotator,) if with_rotator and model.rotator is not None else ())
+    qd_min = np.array([j.velocity_min for j in js])
+    qd_max = np.array([j.velocity_max for j in js])
     return {
         "q_min": np.array([j.lower for j in js]),
         "q_max": np.array([j.upper for j in js]),
-        "qd_min": np.array([j.velocity_min for j in js]),
-        "qd_max": np.array([j.velocity_max for j in js]),
+        "qd_min": qd_min,
+        "qd_max": qd_max,
         "qdd_max": np.array([j.acceleration_max for j in js]),
+        "qd_both": np.minimum(-qd_min, qd_max),
     }

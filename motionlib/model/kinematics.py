@@ -78,6 +78,8 @@ class Crane:
         Joint position limits (rad, rad, rad, m).
     qd_min, qd_max : ndarray, shape (4,)
         Direction-dependent joint velocity limits (``qd_min < 0 < qd_max``).
+    qd_both : ndarray, shape (4,)
+        The speed each joint reaches in either direction, ``min(|qd_min|, qd_max)``.
     qdd_max : ndarray, shape (4,)
         Joint acceleration limits (symmetric).
     """
@@ -91,6 +93,7 @@ class Crane:
         self.q_max = lim["q_max"]
         self.qd_min = lim["qd_min"]
         self.qd_max = lim["qd_max"]
+        self.qd_both = lim["qd_both"]
         self.qdd_max = lim["qdd_max"]
         #: The grapple rotator's limits (JointSpec) or None; the arrays above keep the four arm joints.
         self.rotator = model.rotator

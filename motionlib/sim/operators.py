@@ -672,7 +672,7 @@ class SimulatedOperator:
         self.goal_estimate = self.goal + np.array(err)
         self.waits_for_arrival = mode.authority == "traded" and rng.random() < prm.traded_wait_fraction
         self.takeover_tau_s = takeover_tau_s(prm, self._seed)
-        speed = np.minimum(-crane.qd_min, crane.qd_max)  # the joint levers at full deflection
+        speed = crane.qd_both  # the joint levers at full deflection
         span = crane.q_max - crane.q_min
         js = list(self.joystick.gains) + [0.0] * (4 - len(self.joystick.gains))
         scalars = [prm.reaction_time_s, prm.gain_per_s, prm.max_speed_m_s, prm.precision_m, prm.noise,

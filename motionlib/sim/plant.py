@@ -173,7 +173,7 @@ class SimParams:
         shipped cranes) the second-order plant bounds each actuator's force or torque by its
         capacity ``p_relief d_i`` instead (module docstring).
     deadband_frac : float
-        Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)``. Assumption.
+        Valve dead band as a fraction of each joint's speed ``min(|qd_min|, qd_max)`` (``Crane.qd_both``). Assumption.
     noise_frac : float
         Standard deviation of the multiplicative flow noise (0: none). Assumption.
     valve_gain_pos, valve_gain_neg : tuple of 4 float
@@ -646,7 +646,7 @@ class SimulatedCrane:
         self._g = geometry(crane)
         full = crane.full_limits  # (n,) with the rotator last on a crane that has one
         self._q_min, self._q_max = full["q_min"].copy(), full["q_max"].copy()
-        speed = np.minimum(-full["qd_min"], full["qd_max"])
+        speed = full["qd_both"]
         ones = [1.0] * (self._n - 4)  # the rotator has no valve gains
         valve = np.array([prm.deadband_frac * speed, [*prm.valve_gain_pos, *ones], [*prm.valve_gain_neg, *ones],
                           full["qd_min"], full["qd_max"]], dtype=np.float64)

@@ -50,6 +50,9 @@ def test_limits_for_matches_the_crane_file(name):
     assert isinstance(flow, PumpFlowLimit)
     assert flow.pump_flow == raw["hydraulics"]["pump_flow"]
     np.testing.assert_array_equal(flow.displacement, [raw["hydraulics"]["displacement"][n] for n in NAMES])
+    # the speed a joint reaches both ways: the slower direction's, joint by joint
+    np.testing.assert_array_equal(Crane.load(name).qd_both,
+                                  [min(abs(j["velocity_min"]), j["velocity_max"]) for j in joints])
 
 
 def test_limits_for_without_hydraulics_has_no_flow_limit():

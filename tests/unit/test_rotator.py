@@ -62,6 +62,7 @@ def test_rotator_file_reads_its_values_and_round_trips(rc, raw):
     assert crane_model_from_dict(m.to_file_dict()) == m
     np.testing.assert_array_equal(rc.full_limits["qd_max"][:4], rc.qd_max)
     assert rc.full_limits["qd_max"][4] == spec["velocity_max"]
+    assert rc.full_limits["qd_both"][4] == min(abs(spec["velocity_min"]), spec["velocity_max"])
 
 
 def test_a_crane_without_rotator_keeps_its_record_and_four_joints():
