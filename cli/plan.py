@@ -79,6 +79,7 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
 
         plots = [str(p) for p in plot_plan(plot_dir, crane, scene, traj)]
     info = traj.info
+    swing, js = result.stages["swing"].details, result.stages["jointspace"].details
     summary = {
         "duration_s": traj.duration_s,
         "path_length_m": info.path_length_m,
@@ -90,7 +91,12 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
         "residual_swing_rad": info.residual_swing_rad,
         "swing_tolerance_rad": info.swing_tolerance_rad,
         "swing_shaper": info.swing_shaper,
-        "time_optimal_s": traj.duration_s - result.stages["swing"].details.get("added_s", 0.0),
+        "time_optimal_s": traj.duration_s - swing.get("added_s", 0.0),
+        # the swing-blind motions' own figure of merit: duration plus their residual swing's passive decay
+        "time_optimal_residual_swing_rad": swing.get("unshaped_residual_rad"),
+        "time_optimal_time_to_settled_s": swing.get("unshaped_time_to_settled_s"),
+        "baseline_jointspace_residual_swing_rad": js.get("baseline_residual_swing_rad"),
+        "baseline_jointspace_time_to_settled_s": js.get("baseline_time_to_settled_s"),
         "total_jerk": info.total_jerk,
         "path_source": info.path_source,
         "profile": info.profile,
@@ -116,12 +122,15 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
         ("jointspace", "joint space"),
     ):
         value = result.baselines[name]
-        click.echo(f"  baseline, {label}: " + (f"{value:.2f} s" if value is not None else "infeasible"))
+        settled = summary["baseline_jointspace_time_to_settled_s"] if name == "jointspace" else None
+        click.echo(f"  baseline, {label}: " + (f"{value:.2f} s" if value is not None else "infeasible")
+                   + (f" (settled at {settled:.2f} s)" if value is not None and settled is not None else ""))
     click.echo(f"  lower bound: {info.lower_bound_s:.2f} s")
+    optimal_settled = summary["time_optimal_time_to_settled_s"]
     click.echo(
         f"  time to settled: {info.time_to_settled_s:.2f} s (predicted residual swing {info.residual_swing_rad:.3f} "
-        f"rad, tolerance {info.swing_tolerance_rad:g} rad; swing shaping {info.swing_shaper}, time-optimal "
-        f"{summary['time_optimal_s']:.2f} s)"
+        f"rad, tolerance {info.swing_tolerance_rad:g} rad; swing shaping {info.swing_shaper}; time-optimal "
+        f"{summary['time_optimal_s']:.2f} s" + (f", settled at {optimal_settled:.2f} s)" if optimal_settled else ")")
     )
     click.echo(f"  total jerk (000 eq. 6): {info.total_jerk:.1f} m^2/s^5")
     if "log_yaw_end_rad" in summary:

@@ -15,10 +15,12 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+import yaml
 from click.testing import CliRunner
 from motionlib_cli.main import cli
 
 from motionlib.model.collision import CollisionChecker
+from motionlib.model.crane_model import CRANES_DIR
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
 from motionlib.planning.planner import Planner, PlanOptions, PlanStatus
@@ -342,6 +344,19 @@ def test_cli_plan_json_and_file(tmp_path):
     assert 0.0 < summary["lower_bound_s"] <= summary["duration_s"]
     assert summary["baseline_jointspace_s"] is None or summary["baseline_jointspace_s"] >= summary["lower_bound_s"]
     assert summary["path_source"] == load_plan(out).info.path_source
+    # the swing-blind motions' time to settled: their duration plus the passive decay exp(-c t / 2) of their residual
+    # swing to the tolerance, c from the crane file (read here without motionlib)
+    c = yaml.safe_load((CRANES_DIR / "lab.yaml").read_text())["dynamics"]["swing_damping"]
+    swing_blind = [("time_optimal_s", "time_optimal")]
+    if summary["baseline_jointspace_s"] is not None:
+        swing_blind.append(("baseline_jointspace_s", "baseline_jointspace"))
+    for duration, name in swing_blind:
+        residual = summary[f"{name}_residual_swing_rad"]
+        decay = max(0.0, math.log(residual / 0.03)) / (c / 2.0)
+        assert summary[f"{name}_time_to_settled_s"] == pytest.approx(summary[duration] + decay, abs=1e-9)
+    assert summary["time_optimal_residual_swing_rad"] > 0.03  # unshaped, the lab's grapple swings on
+    text = plan_cli("pickup-a", "--seed", "2").output
+    assert f"settled at {summary['time_optimal_time_to_settled_s']:.2f} s" in text
     traj = load_plan(out)
     assert traj.duration_s == pytest.approx(summary["duration_s"])
     with h5py.File(out) as f:
