@@ -24,7 +24,7 @@ def crane_summary(crane: Crane) -> dict[str, Any]:
     """Plain-data summary of a crane (the ``crane show --json`` object)."""
     m = crane.model
     hydraulics = None
-    if m.pump_flow is not None:
+    if m.pump_flow is not None and m.displacement is not None:  # the crane file gives both or neither
         hydraulics = {"pump_flow": m.pump_flow, "displacement": dict(zip(JOINT_NAMES, m.displacement, strict=True))}
         omega = m.natural_frequencies_rad_s()
         if m.bulk_modulus is not None and m.oil_volume is not None and omega is not None:

@@ -98,7 +98,7 @@ def live(library, host, port, mode, operator_spec, utility, seed, time_limit, up
         click_height_m=click_height,
     )
     stop = threading.Event()
-    previous: dict[int, Any] = {}
+    previous: dict[signal.Signals, Any] = {}
     for sig in (signal.SIGINT, signal.SIGTERM):
         previous[sig] = signal.signal(sig, lambda *_: stop.set())
     try:

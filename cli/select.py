@@ -58,13 +58,14 @@ def select(library, target, gaze_file, current, utility, l1, l2, sigma, v_manual
         if value is not None:
             kw[name] = value
     lib = Library.open(library, crane=crane)
-    gaze = None
+    gaze, covariance = None, None
     if gaze_file is not None:
         from motionlib import GazeRecording, select_by_gaze
 
         gaze = select_by_gaze(lib, GazeRecording.load(gaze_file), current_q, utility or "robust", **kw)
-        result = gaze.raise_for_status(str(library)).selection
-        target_p = gaze.estimate.p_est.tolist()
+        estimate, selection = gaze.raise_for_status(str(library)).estimate, gaze.selection
+        assert estimate is not None and selection is not None  # a gaze selection that is ok has both
+        result, target_p, covariance = selection, estimate.p_est.tolist(), estimate.covariance.tolist()
     else:
         target_p = target.tolist()
         result = lib.select_checked(target, current_q, utility or "time", **kw).raise_for_status(str(library))
@@ -89,7 +90,7 @@ def select(library, target, gaze_file, current, utility, l1, l2, sigma, v_manual
                 "library": str(library),
                 "utility": result.utility.value,
                 "target": target_p,
-                **({"gaze_covariance": gaze.estimate.covariance.tolist()} if gaze is not None else {}),
+                **({"gaze_covariance": covariance} if covariance is not None else {}),
                 "current": current_q.tolist() if current_q is not None else None,
                 "n_candidates": result.n_candidates,
                 "candidates": candidates,
