@@ -16,6 +16,7 @@ long values short in error messages.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any
@@ -161,7 +162,15 @@ class Plausible:
             why = f"plausible range; a file with 'plausibility: relaxed' accepts [{self.hard_lo:g}, {self.hard_hi:g}]"
         else:
             why = f"plausible range; beyond the numeric limit [{self.hard_lo:g}, {self.hard_hi:g}] in any file"
-        return f"expected a value in [{lo:g}, {hi:g}]{unit} ({why}), got {x:g}"
+        return f"expected a value in [{lo:g}, {hi:g}]{unit} ({why}), got {_number(x)}"
+
+
+def _number(x: float) -> str:
+    """``x`` for a message, ``:g``; an integer beyond the float range by its size (``:g`` overflows on it)."""
+    try:
+        return f"{x:g}"
+    except OverflowError:
+        return f"an integer of about {math.floor(int(x).bit_length() * math.log10(2)) + 1} digits"
 
 
 #: Positions in the crane's base frame (scene coordinates, target points), m.

@@ -374,7 +374,8 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
     ``spline_breakpoints`` (m,)); every value is finite; ``t`` starts at 0 and strictly
     increases; ``info.duration_s`` is ``t[-1]``; ``info.start_q`` is ``q[0]``; the stored tip
     path lies on the stored spline (``path/tip`` = spline(``path/s``) within
-    :data:`PATH_ON_SPLINE_TOL_M`) and the spline is continuous (:meth:`TipSpline.max_jump` within the
+    :data:`PATH_ON_SPLINE_TOL_M`), the spline spans ``path/s`` (its first and last breakpoint within the same
+    tolerance of the path's ends) and is continuous (:meth:`TipSpline.max_jump` within the
     same tolerance), so finite but absurd path values (a 50 m or 1e308 coefficient of any piece)
     are refused like NaN. With ``crane``, every sample keeps the crane's position, velocity,
     acceleration and pump limits within the verifier's 1 % tolerance, and the joint samples'
@@ -419,6 +420,12 @@ def check_trajectory(traj: Trajectory, where: str, crane: Crane | None = None) -
                  f"{None if r is None else r.shape} and {None if c is None else c.shape}")
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(c))):
             fail("rotator holds a non-finite value")
+    # the spline spans the stored path: its pieces past the path would be read (the tracker samples all of it) but
+    # are not checked against the path's samples below
+    bp, s_path = traj.spline_breakpoints, traj.path_s
+    if not (abs(bp[0] - s_path[0]) <= PATH_ON_SPLINE_TOL_M and abs(bp[-1] - s_path[-1]) <= PATH_ON_SPLINE_TOL_M):
+        fail(f"path/spline_breakpoints span [{bp[0]:.6g}, {bp[-1]:.6g}] m, expected the path's "
+             f"[{s_path[0]:.6g}, {s_path[-1]:.6g}] m")
     with np.errstate(all="ignore"):  # a 1e308 coefficient overflows (its derivative, its value): an offset of inf
         try:
             spline = TipSpline.from_arrays(traj.spline_breakpoints, traj.spline_coefficients)

@@ -224,6 +224,27 @@ def test_resealed_plan_with_an_absurd_finite_spline_value_is_refused(fixtures, t
         load_plan(path)
 
 
+@pytest.mark.parametrize(("end", "value"), [(-1, 1e6), (-1, None), (0, -0.5)])
+def test_resealed_plan_whose_spline_does_not_span_its_path_is_refused(fixtures, tmp_path, end, value):
+    """A breakpoint moved past the stored path's ends (found by benchmarks/fuzz.py, seed 11: the last one at 1e6 m was
+    read, and the spline's last piece extrapolated to 1e20 m where the tracker samples it): refused, naming the spans.
+    ``None``: the last breakpoint 2 mm beyond the path's end, just outside the 1 mm tolerance."""
+    from motionlib.planning.trajectory import load_plan
+
+    path = tmp_path / "plan.h5"
+    path.write_bytes(fixtures.plan.read_bytes())
+    length = load_plan(path).path_s[-1]
+    with h5py.File(path, "r+") as f:
+        breakpoints = f["path/spline_breakpoints"][...]
+        breakpoints[end] = length + 2e-3 if value is None else value
+        del f["path/spline_breakpoints"]
+        f["path"].create_dataset("spline_breakpoints", data=breakpoints)
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=r"corrupt trajectory: path/spline_breakpoints span \[.*\] m, expected "
+                                               r"the path's \[0, .*\] m"):
+        load_plan(path)
+
+
 # ------------------------------------------------------------------ damaged files, read in a child
 def _damaged(src: Path, out_dir: Path, name: str) -> list[Path]:
     """Copies of ``src``: bytes changed in the attribute region, truncated, extended, seal altered, random damage."""

@@ -150,6 +150,10 @@ BAD = [
     (lambda d: d.update(planner={"planner": "NoSuchPlanner"}), r"planner\.planner: expected one of"),
     (lambda d: d.update(planner={"time_limit_s": 0}), r"planner\.time_limit_s: expected a number > 0"),
     (lambda d: d.update(planner={"seed": 3}), r"planner\.seed: unknown key"),
+    (  # an integer beyond the float range (found by benchmarks/fuzz.py, seed 11: an OverflowError before)
+        lambda d: d.update(planner={"max_checks": 10**400}),
+        r"planner\.max_checks: expected a value in \[100, 1e\+06\] checks .*got an integer of about 401 digits",
+    ),
     (lambda d: d.update(planner={"redundancy": {"degree": 0}}), r"planner\.redundancy\.degree"),
     (lambda d: d.update(crane="nosuchcrane"), r"crane: cannot load the crane"),
 ]
