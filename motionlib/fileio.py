@@ -331,13 +331,17 @@ def decode_attr(value: Any, where: str) -> Any:
     Raises
     ------
     LibraryFileError
-        A ``json:`` attribute does not hold valid JSON; the message starts with ``where``.
+        A text attribute is not UTF-8 (h5py reads a UTF-8 attribute's invalid bytes as lone surrogates, which
+        nothing can write back), or a ``json:`` attribute does not hold valid JSON; the message starts with
+        ``where``.
     """
-    if isinstance(value, bytes):
-        try:
+    try:
+        if isinstance(value, bytes):
             value = value.decode()
-        except UnicodeDecodeError as exc:
-            raise LibraryFileError(f"{where}: expected UTF-8 text") from exc
+        elif isinstance(value, str):
+            value.encode()
+    except UnicodeError as exc:
+        raise LibraryFileError(f"{where}: expected UTF-8 text") from exc
     if isinstance(value, str) and value.startswith(JSON_ATTR_PREFIX):
         return parse_json(value[len(JSON_ATTR_PREFIX) :], where)
     if isinstance(value, np.generic):

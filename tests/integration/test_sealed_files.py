@@ -224,6 +224,28 @@ def test_resealed_plan_with_an_absurd_finite_spline_value_is_refused(fixtures, t
         load_plan(path)
 
 
+@pytest.mark.parametrize("key", ["path_source", "swing_shaper", "profile"])
+def test_resealed_plan_with_a_text_attribute_that_is_not_utf8_is_refused(fixtures, tmp_path, key):
+    """Invalid UTF-8 bytes in a text attribute, re-sealed (found by benchmarks/fuzz.py, seed 12, in a build checkpoint's
+    ``reason``: h5py reads them as lone surrogates, and writing the library then failed with a UnicodeEncodeError)."""
+    from motionlib.fileio import decode_attr
+    from motionlib.planning.trajectory import load_plan
+
+    path = tmp_path / "plan.h5"
+    path.write_bytes(fixtures.plan.read_bytes())
+    with h5py.File(path, "r+") as f:
+        f.attrs.create(key, b"\xff\xfe" + str(f.attrs[key]).encode(), dtype=h5py.string_dtype("utf-8"))
+    seal_hdf5(path)
+    with h5py.File(path) as f:
+        value = f.attrs[key]
+    assert isinstance(value, str) and value.startswith("\udcff\udcfe")  # what h5py gives: a str nothing can write
+    with pytest.raises(LibraryFileError, match=f"{key}.*expected UTF-8 text"):
+        load_plan(path)
+    with pytest.raises(LibraryFileError, match=r"^here: expected UTF-8 text$"):
+        decode_attr(value, "here")
+    assert decode_attr(value.encode("utf-8", "surrogateescape")[2:].decode(), "here") is not None  # the rest reads
+
+
 @pytest.mark.parametrize(("end", "value"), [(-1, 1e6), (-1, None), (0, -0.5)])
 def test_resealed_plan_whose_spline_does_not_span_its_path_is_refused(fixtures, tmp_path, end, value):
     """A breakpoint moved past the stored path's ends (found by benchmarks/fuzz.py, seed 11: the last one at 1e6 m was
