@@ -1,6 +1,6 @@
 """Runtime fuzzing: random operator sequences through every mode M1-M6 on the simulated lab crane.
 
-Run: ``python benchmarks/runtime_fuzz.py [--n 100000] [--seed 0] [--workers 2]``
+Run: ``python benchmarks/runtime_fuzz.py [--n 100000] [--seed 0] [--workers 2] [--per-joint-stiffness]``
 
 Sequence ``i`` (a pure function of ``(seed, i)``) runs in mode ``M1..M6[i % 6]`` from a
 library-like motion's start with the motion started (half of them) or from a random
@@ -63,22 +63,25 @@ def _axes(rng: np.random.Generator) -> tuple[float, ...]:
     return tuple(SPECIAL[int(k)] for k in rng.integers(len(SPECIAL), size=4))
 
 
-def run_sequence(seed: int, i: int) -> tuple[str, int, Counter]:
-    """Run sequence ``i``; its mode, its number of steps and the violations counted."""
+def run_sequence(seed: int, i: int, per_joint: bool = False) -> tuple[str, int, Counter]:
+    """Run sequence ``i``; its mode, its number of steps and the violations counted. ``per_joint``: on the plant with
+    each joint's own oil-spring frequency, with the controller for it (``ExecuteOptions.with_per_joint_stiffness``)."""
     from motionlib.control.control_types import OperatorInput
     from motionlib.control.controller import SharedController
+    from motionlib.sim.execute import ExecuteOptions
     from motionlib.sim.plant import SimulatedCrane
 
     crane, traj = _setup()
     rng = np.random.default_rng([seed, i])
     mode = MODES[i % len(MODES)]
-    ctl = SharedController(crane, mode)
+    options = ExecuteOptions().with_per_joint_stiffness() if per_joint else ExecuteOptions()
+    ctl = SharedController(crane, mode, options.controller)
     if rng.random() < 0.5:
         q0 = traj.q[0]
         ctl.start_motion(traj)
     else:
         q0 = crane.q_min + rng.uniform(0.05, 0.95, 4) * (crane.q_max - crane.q_min)
-    sim = SimulatedCrane(crane, q0)
+    sim = SimulatedCrane(crane, q0, options.sim)
     bad: Counter = Counter()
     prev = np.zeros(4)
     steps = 0
@@ -113,11 +116,11 @@ def run_sequence(seed: int, i: int) -> tuple[str, int, Counter]:
     return mode, steps, bad
 
 
-def run_range(seed: int, start: int, stop: int) -> dict[str, list[int]]:
+def run_range(seed: int, start: int, stop: int, per_joint: bool = False) -> dict[str, list[int]]:
     """Sequences ``start..stop-1``: per mode ``[sequences, steps, *VIOLATIONS counts]``."""
     out = {m: [0] * (2 + len(VIOLATIONS)) for m in MODES}
     for i in range(start, stop):
-        mode, steps, bad = run_sequence(seed, i)
+        mode, steps, bad = run_sequence(seed, i, per_joint)
         row = out[mode]
         row[0] += 1
         row[1] += steps
@@ -131,17 +134,21 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=100_000, help="operator sequences")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--per-joint-stiffness", action="store_true",
+                        help="each joint its own oil-spring frequency, with the controller for it")
     args = parser.parse_args()
     chunk = max(1, min(1000, args.n // (4 * args.workers) or 1))
     total = {m: [0] * (2 + len(VIOLATIONS)) for m in MODES}
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [pool.submit(run_range, args.seed, a, min(a + chunk, args.n)) for a in range(0, args.n, chunk)]
+        futures = [pool.submit(run_range, args.seed, a, min(a + chunk, args.n), args.per_joint_stiffness)
+                   for a in range(0, args.n, chunk)]
         for fut in futures:
             for m, row in fut.result().items():
                 total[m] = [a + b for a, b in zip(total[m], row, strict=True)]
     wall = time.perf_counter() - t0
-    print(f"{args.n} operator sequences, seed {args.seed}, {args.workers} workers, {wall:.0f} s wall")
+    plant = "per-joint plant" if args.per_joint_stiffness else "default plant"
+    print(f"{args.n} operator sequences, seed {args.seed}, {args.workers} workers, {plant}, {wall:.0f} s wall")
     print(f"{'mode':<6}{'sequences':>10}{'steps':>11}" + "".join(f"{v:>15}" for v in VIOLATIONS))
     for m in (*MODES, "all"):
         row = total[m] if m != "all" else [sum(r[k] for r in total.values()) for k in range(2 + len(VIOLATIONS))]

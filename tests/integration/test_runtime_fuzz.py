@@ -11,13 +11,17 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import runtime_fuzz  # noqa: E402
 
 
-def test_fixed_sample_of_operator_sequences_violates_nothing():
-    counts = runtime_fuzz.run_range(seed=20261123, start=0, stop=60)
+@pytest.mark.parametrize("per_joint", [False, True], ids=["default-plant", "per-joint-plant"])
+def test_fixed_sample_of_operator_sequences_violates_nothing(per_joint):
+    """The same sequences on both plants; on the per-joint one with its controller (joint feedforward, dead-band
+    compensation), whose command must keep the same limits."""
+    counts = runtime_fuzz.run_range(seed=20261123, start=0, stop=60, per_joint=per_joint)
     for mode, row in counts.items():
         assert row[0] == 10 and row[1] > 10 * 50, (mode, row)  # every mode got its sequences, and they ran
         violations = dict(zip(runtime_fuzz.VIOLATIONS, row[2:], strict=True))
