@@ -50,6 +50,24 @@ def test_fuzzed_files_give_package_errors_only(readers, name, tmp_path):
     assert counts["clean"] > N_API[name] // 2 and counts["accepted"] > 0, counts
 
 
+#: Inputs the benchmark found to be mishandled, kept as a regression set: (reader, seed, input), each read as
+#: ``python benchmarks/fuzz.py --seed SEED --reproduce READER:INPUT`` writes it (the mutation is a pure function of
+#: the three); the tests of the fixes state each case independently of the mutators.
+FOUND = [
+    ("spec", 11, 4688),  # max_checks of 400 digits: OverflowError formatting the message (test_library_spec.py)
+    ("plan", 11, 5298),  # the last spline breakpoint at 1e6 m: read, extrapolated (test_sealed_files.py)
+    ("checkpoint", 12, 323),  # invalid UTF-8 in 'stage': kept, the library's write failed (test_sealed_files.py)
+    ("checkpoint", 12, 952),  # the same in 'reason'
+]
+
+
+@pytest.mark.parametrize(("name", "seed", "case"), FOUND, ids=[f"{n}-{s}-{c}" for n, s, c in FOUND])
+def test_inputs_the_benchmark_found_are_refused_cleanly(readers, name, seed, case, tmp_path):
+    index = list(readers).index(name)
+    result = fuzz.run_cases(readers[name], index, seed, range(case, case + 1), tmp_path)
+    assert result["counts"]["clean"] == 1, result["examples"]
+
+
 def test_range_check_catches_an_implausible_crane():
     """The independent check is not vacuous: a 10 km boom on a copy of a loaded crane is reported."""
     import copy
