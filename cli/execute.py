@@ -53,6 +53,9 @@ from .targets import check_target_options, open_loop_report, select_row
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--no-swing-damping", is_flag=True,
               help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
+@click.option("--per-joint-stiffness", is_flag=True,
+              help="Each joint its own oil-spring frequency from the crane file, with the controller for it "
+                   "(ExecuteOptions.with_per_joint_stiffness); default: every joint 2.5 Hz (docs/runtime.md).")
 @click.option("--stick-mrf", metavar="NAME", help="M4-M6: the stick moves this point (tip, grapple, log_centre, "
               "log_end or a scene frame; 001 eq. 1); with a stick script or the passive operator.")
 @click.option("--stick-crf", metavar="NAME", help="M4-M6: the stick's axes along this frame's x, y, z (base, slew or a "
@@ -78,8 +81,8 @@ from .targets import check_target_options, open_loop_report, select_row
 @click.option("--plot", "plot_dir", type=click.Path(file_okay=False), help="Write PNG figures to this directory.")
 def execute(
     library, target, commands_file, command, gaze_file, open_loop, mode, operator_spec, current, utility, seed, noise,
-    time_limit, no_guard, no_swing_damping, stick_mrf, stick_crf, vision_target, vision_gains, force_bound,
-    accommodation_axes, feedback_gain, log_path, as_json, plot_dir,
+    time_limit, no_guard, no_swing_damping, per_joint_stiffness, stick_mrf, stick_crf, vision_target, vision_gains,
+    force_bound, accommodation_axes, feedback_gain, log_path, as_json, plot_dir,
 ) -> None:
     """Execute the LIBRARY trajectory selected for TARGET (or a command, or a gaze) with a simulated crane and operator.
 
@@ -118,6 +121,8 @@ def execute(
         options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                                  sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                                  stick_crf=stick_crf, vision=vision, accommodation=accommodation)
+        if per_joint_stiffness:
+            options = options.with_per_joint_stiffness()
         entry = int(lib.entry[row]) if row >= 0 else -1
         warning = contact_loop_check(options)
         if warning:  # before the run: a gain that makes the contact ring

@@ -233,3 +233,20 @@ def test_docs_worked_example_runs(library, tmp_path):
         res = _run(*argv, "--json")
         assert res.exit_code == 0, (line, res.output)
         assert json.loads(res.stdout)["status"] in ("settled", "contracted"), line
+
+
+def test_execute_on_the_per_joint_plant_is_the_python_call_with_per_joint_stiffness(library):
+    """``--per-joint-stiffness`` runs the plant with each joint's own oil-spring frequency and the controller for it:
+    the same run as :func:`motionlib.execute` with ``ExecuteOptions.with_per_joint_stiffness()``, not the default's."""
+    from motionlib import ExecuteOptions, execute
+
+    lib = Library.open(library)
+    report = _json("execute", library, "--target", "3.5,5.7,3.0", "--per-joint-stiffness")
+    default = _json("execute", library, "--target", "3.5,5.7,3.0")
+    row = report["library_row"]
+    assert row == default["library_row"]
+    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive",
+                  options=ExecuteOptions().with_per_joint_stiffness())
+    assert report["cycle_time_s"] == run.summary.cycle_time_s and report["settled"] == run.settled
+    assert report["total_jerk"] == run.summary.total_jerk
+    assert report["cycle_time_s"] != default["cycle_time_s"]
