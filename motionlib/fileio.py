@@ -389,15 +389,15 @@ def read_json_attr(attrs: Any, key: str, where: str) -> Any:
     Raises
     ------
     LibraryFileError
-        The attribute is missing, is not a ``json:`` string, or does not hold valid JSON.
+        The attribute is missing, is not a ``json:`` string, is not UTF-8 or does not hold valid JSON.
     """
     try:
         raw = attrs.get(key)
     except (OSError, RuntimeError, KeyError) as exc:  # h5py reports damaged attribute storage this way
         raise LibraryFileError(f"{where}: attribute {key!r} is not readable ({exc})") from exc
-    if isinstance(raw, bytes):
-        raw = raw.decode(errors="replace")
-    if not isinstance(raw, str) or not raw.startswith(JSON_ATTR_PREFIX):
+    is_json = raw.startswith(JSON_ATTR_PREFIX.encode()) if isinstance(raw, bytes) else (
+        isinstance(raw, str) and raw.startswith(JSON_ATTR_PREFIX))
+    if not is_json:
         raise LibraryFileError(f"{where}: attribute {key!r} is missing or not JSON")
     return decode_attr(raw, f"{where}: attribute {key!r}")
 

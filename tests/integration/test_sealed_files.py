@@ -247,6 +247,21 @@ def test_resealed_plan_with_a_text_attribute_that_is_not_utf8_is_refused(fixture
     assert decode_attr(original, "here") == original  # the text without the two bytes reads
 
 
+def test_resealed_plan_with_an_embedded_model_stored_as_bytes_that_are_not_utf8_is_refused(fixtures, tmp_path):
+    """The embedded crane model as a byte string (not h5py's UTF-8 type) with an invalid byte in its JSON: refused
+    like a text attribute (it was decoded with replacement characters and read)."""
+    from motionlib.planning.trajectory import load_plan
+
+    path = tmp_path / "plan.h5"
+    path.write_bytes(fixtures.plan.read_bytes())
+    with h5py.File(path, "r+") as f:
+        text = str(f.attrs["crane_model"])
+        f.attrs["crane_model"] = np.bytes_(text.replace('"lab"', '"l\xffb"', 1).encode("latin-1"))
+    seal_hdf5(path)
+    with pytest.raises(LibraryFileError, match=r"attribute 'crane_model': expected UTF-8 text"):
+        load_plan(path)
+
+
 @pytest.mark.parametrize(("end", "value"), [(-1, 1e6), (-1, None), (0, -0.5)])
 def test_resealed_plan_whose_spline_does_not_span_its_path_is_refused(fixtures, tmp_path, end, value):
     """A breakpoint moved past the stored path's ends (found by benchmarks/fuzz.py, seed 11: the last one at 1e6 m was
