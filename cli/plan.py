@@ -127,10 +127,11 @@ def plan(crane_name, scene_file, start, goal, loaded, log_yaw, output, as_json, 
                    + (f" (settled at {settled:.2f} s)" if value is not None and settled is not None else ""))
     click.echo(f"  lower bound: {info.lower_bound_s:.2f} s")
     optimal_settled = summary["time_optimal_time_to_settled_s"]
+    optimal_settled_text = f", settled at {optimal_settled:.2f} s" if optimal_settled is not None else ""
     click.echo(
         f"  time to settled: {info.time_to_settled_s:.2f} s (predicted residual swing {info.residual_swing_rad:.3f} "
         f"rad, tolerance {info.swing_tolerance_rad:g} rad; swing shaping {info.swing_shaper}; time-optimal "
-        f"{summary['time_optimal_s']:.2f} s" + (f", settled at {optimal_settled:.2f} s)" if optimal_settled else ")")
+        f"{summary['time_optimal_s']:.2f} s{optimal_settled_text})"
     )
     click.echo(f"  total jerk (000 eq. 6): {info.total_jerk:.1f} m^2/s^5")
     if "log_yaw_end_rad" in summary:
