@@ -63,9 +63,8 @@ def select(library, target, gaze_file, current, utility, l1, l2, sigma, v_manual
         from motionlib import GazeRecording, select_by_gaze
 
         gaze = select_by_gaze(lib, GazeRecording.load(gaze_file), current_q, utility or "robust", **kw)
-        estimate, selection = gaze.raise_for_status(str(library)).estimate, gaze.selection
-        assert estimate is not None and selection is not None  # a gaze selection that is ok has both
-        result, target_p, covariance = selection, estimate.p_est.tolist(), estimate.covariance.tolist()
+        estimate, result = gaze.checked(str(library))
+        target_p, covariance = estimate.p_est.tolist(), estimate.covariance.tolist()
     else:
         target_p = target.tolist()
         result = lib.select_checked(target, current_q, utility or "time", **kw).raise_for_status(str(library))

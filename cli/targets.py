@@ -65,8 +65,7 @@ def select_row(
     commands = CommandSet.load(commands_file, lib.scene) if commands_file is not None else None
     if gaze_file is not None:
         chosen = select_by_gaze(lib, GazeRecording.load(gaze_file), current, utility or "robust")
-        estimate, selection = chosen.raise_for_status(str(lib.path)).estimate, chosen.selection
-        assert estimate is not None and selection is not None  # a gaze selection that is ok has both
+        estimate, selection = chosen.checked(str(lib.path))
         return Chosen(int(selection.indices[0]), estimate.p_est, selection.utility.value, commands, estimate)
     if commands is not None and command is not None:
         if utility is not None:

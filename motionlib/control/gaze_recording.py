@@ -168,6 +168,13 @@ class GazeSelection:
             raise NoSelectionError(f"{where}: {self.message}" if where else self.message)
         return self
 
+    def checked(self, where: str = "") -> tuple[GazeEstimate, SelectionResult]:
+        """The estimate and the selection of a result that selected a trajectory (:meth:`raise_for_status` first)."""
+        self.raise_for_status(where)
+        if self.estimate is None or self.selection is None:
+            raise RuntimeError("a gaze selection that is ok has an estimate and a selection")
+        return self.estimate, self.selection
+
 
 def select_by_gaze(
     library: Library,

@@ -103,3 +103,14 @@ def test_eq_5_7_with_the_gaze_covariance_serves_at_least_as_often_as_the_plain_u
     assert np.all(gaze_rate >= time_rate), (time_rate, gaze_rate)
     assert gaze_rate[0] > time_rate[0] + 0.08  # at a low error the difference is not chance (200 trials)
     assert np.all(np.diff(result.median_error_m) > 0)  # a larger head scatter, a larger error
+
+
+def test_a_gaze_selection_without_an_estimate_is_refused_when_checked():
+    """:meth:`GazeSelection.checked` raises the selection's own error (its message after ``where``); an ok one gives
+    its estimate and selection (through the CLI's --gaze, tests/cli/test_cli_commands.py)."""
+    from motionlib.control.gaze_recording import GazeSelection, GazeSelectionStatus
+    from motionlib.errors import NoSelectionError
+
+    none = GazeSelection(GazeSelectionStatus.NO_ESTIMATE, "the gaze does not come down to 0.9 m", None, None)
+    with pytest.raises(NoSelectionError, match=r"^gaze\.yaml: the gaze does not come down to 0\.9 m$"):
+        none.checked("gaze.yaml")
