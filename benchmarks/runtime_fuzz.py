@@ -12,8 +12,10 @@ configuration without one, and feeds the controller 1-4 segments of operator inp
 * ``silent``: the device stops sending; the last sample keeps its time stamp (stale after 0.1 s);
 * ``absent``: no input object at all (``step(state, None)``).
 
-Every step is checked independently of the controller's own flags: the command is finite,
-inside ``[qd_min, qd_max]`` and within ``qdd_max * dt`` of the previous one; the simulated
+Every step is checked independently of the controller's own flags: the joint velocity command
+(``ControllerStatus.qd_cmd``) is finite, inside ``[qd_min, qd_max]`` and within ``qdd_max * dt`` of the previous
+one; the valves' command the step returns (the slew's servo's output on the per-joint plant) is finite and inside
+``[qd_min, qd_max]``; the simulated
 joints stay inside their limits without hitting an end stop. The table gives, per mode, the
 sequences, steps and the count of each violation. Targets (issue 13): 0 non-finite commands,
 0 limit violations. ``tests/integration/test_runtime_fuzz.py`` runs a fixed small sample;
@@ -99,16 +101,17 @@ def run_sequence(seed: int, i: int, per_joint: bool = False) -> tuple[str, int, 
             else:
                 axes = held if kind == "stuck" else _axes(rng)
                 inputs = OperatorInput(state.t, axes, kind == "random" and rng.random() < 0.01)
-            cmd = np.asarray(ctl.step(state, inputs), dtype=float)
+            valves = np.asarray(ctl.step(state, inputs), dtype=float)  # with the slew's servo, if on
+            cmd = np.asarray(ctl.status.qd_cmd, dtype=float)  # the joint velocity command
             steps += 1
-            if not np.all(np.isfinite(cmd)):
+            if not (np.all(np.isfinite(cmd)) and np.all(np.isfinite(valves))):
                 bad["nonfinite_cmd"] += 1
-            elif np.any(cmd > crane.qd_max + EPS) or np.any(cmd < crane.qd_min - EPS):
+            elif any(np.any(c > crane.qd_max + EPS) or np.any(c < crane.qd_min - EPS) for c in (cmd, valves)):
                 bad["velocity"] += 1
             if np.any(np.abs(cmd - prev) > crane.qdd_max * DT * (1 + 1e-9) + EPS):
                 bad["acceleration"] += 1
             prev = cmd
-            sim.advance(ctl.status.qd_cmd, DT)
+            sim.advance(valves, DT)
             q = np.asarray(sim.q)
             if np.any(q < crane.q_min) or np.any(q > crane.q_max):
                 bad["joint_limit"] += 1

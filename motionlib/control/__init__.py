@@ -33,6 +33,8 @@ tracker
     Path tracking with nearest point and look-ahead (000 eq. 3).
 joint_feedforward
     The joints' feedforward: the valve command that inverts each joint's lag and oil spring along the plan.
+joint_servo
+    The slew's model-following servo: its rate and drive pressure fed back against a well-damped model of it.
 mixer
     The shared-control mixer ``p_s = c_a p_a + c_o p_o`` with weak zones (000 eqs. 4-5).
 resolved_rate

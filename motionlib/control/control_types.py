@@ -104,17 +104,22 @@ class CraneState:
         measured (the controller's swing damping then does nothing).
     rotator : tuple of 2 float
         The grapple rotator's angle q5 (rad) and rate (rad/s); (0, 0) without a rotator.
+    drive : sequence of 4 float or None
+        Each arm joint's drive: its actuator's force (torque) per unit inertia (rad/s^2, m/s^2), as the
+        pressure transducers of its two chambers give it (``(p_A A_A - p_B A_B) r / I``); None: not measured
+        (the slew's servo, ``ControllerParams.slew_servo``, then passes the command through).
     """
 
-    __slots__ = ("t", "q", "qd", "swing", "rotator")
+    __slots__ = ("t", "q", "qd", "swing", "rotator", "drive")
 
     def __init__(self, t: float, q: Sequence[float], qd: Sequence[float], swing: Sequence[float] | None = None,
-                 rotator: tuple[float, float] = (0.0, 0.0)):
+                 rotator: tuple[float, float] = (0.0, 0.0), drive: Sequence[float] | None = None):
         self.t = t
         self.q = q
         self.qd = qd
         self.swing = swing
         self.rotator = rotator
+        self.drive = drive
 
     def __repr__(self) -> str:
         return f"CraneState(t={self.t!r}, q={tuple(self.q)!r}, qd={tuple(self.qd)!r})"
@@ -172,7 +177,11 @@ class ControllerStatus:
     sigma_min : float
         Smallest singular value of ``J W^1/2`` (resolved-rate steps only, else NaN).
     qd_cmd : tuple of 4 float
-        The command returned by the step.
+        The joint velocity command of the step (steps 3-5 of the controller: finite, within the velocity limits,
+        within ``qdd_max`` of the previous one with the command ramp).
+    valve_cmd : tuple of 4 float
+        The command the valves get, which the step returns: ``qd_cmd``, the slew's with its servo's correction
+        (``ControllerParams.slew_servo``, within the slew's velocity limits; :mod:`motionlib.control.joint_servo`).
     feedback_n, feedback_nm : tuple of 4 float
         With force feedback (``ControllerParams.feedback``): the hand controller's grip force (N) and
         joint torques (N m, 001 eq. 6) per stick axis ``(left_x, left_y, right_x, right_y)``
@@ -190,6 +199,7 @@ class ControllerStatus:
     flags: int = 0
     sigma_min: float = math.nan
     qd_cmd: Vec4 = _ZERO4
+    valve_cmd: Vec4 = _ZERO4
     feedback_n: Vec4 = _ZERO4
     feedback_nm: Vec4 = _ZERO4
 
@@ -267,14 +277,22 @@ class ControllerParams:
         frequencies").
     joint_feedforward : bool
         Feed each joint's identified model forward (off by default): the path tracker adds, per joint, what
-        inverting the valve lag and the oil spring (``joint_natural_freq_hz``, ``joint_damping_ratio``,
-        ``valve_lag_s``) with the planned swing's pull as the load adds to the plan's speed
+        inverting the valve lag and the oil spring (``joint_natural_freq_hz``, ``joint_damping_ratio`` or, for the
+        slew with ``slew_servo``, its servo model's, ``valve_lag_s``) with the planned swing's pull as the load adds to
+        the plan's speed
         (:mod:`motionlib.control.joint_feedforward`), so that a slow joint does not store the plan's braking in
         its oil spring and ring after the end. On with the per-joint plant
         (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`; docs/runtime.md,
         "Per-joint natural frequencies"). Off on the default plant: its 2.5 Hz joints lag less than the tracker's
         preview, which was tuned there, and with the feedforward its executed settle ratio reaches 1.46x on one of
         20 rows (docs/runtime.md).
+    slew_servo : bool
+        The slew's model-following servo (off by default): the slew's valve gets the command plus the errors of
+        its rate and drive pressure from a well-damped model of the slew driven by the command
+        (:mod:`motionlib.control.joint_servo`; needs ``CraneState.drive``), so that the slew and the grapple
+        swinging across the boom do not ring after a motion; the joints' feedforward then inverts that model for
+        the slew. On with the per-joint plant (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`;
+        docs/runtime.md, "The slew's model-following servo").
     valve_lag_s : float
         The valves' spool time constant (s) of the joint model: the plant's ``SimParams.tau_s``.
     valve_deadband_frac : float
@@ -316,6 +334,7 @@ class ControllerParams:
     joint_natural_freq_hz: float | None = param(2.5, gt=0.0, le=100.0, optional=True)
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     joint_feedforward: bool = False
+    slew_servo: bool = False
     valve_lag_s: float = param(0.04, ge=0.0, le=1.0)
     valve_deadband_frac: float = param(0.0, ge=0.0, le=0.1)
     position_gain_margin: float = param(3.0, ge=0.0)
@@ -325,7 +344,7 @@ class ControllerParams:
         check_params(self)
         if self.feedback is not None and not isinstance(self.feedback, ForceFeedbackParams):
             raise InputError(f"feedback: expected ForceFeedbackParams or None, got {type(self.feedback).__name__}")
-        for name in ("command_ramp", "joint_feedforward"):
+        for name in ("command_ramp", "joint_feedforward", "slew_servo"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name}: expected true or false, got {getattr(self, name)!r}")
         if self.weights is not None:

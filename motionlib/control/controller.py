@@ -46,6 +46,10 @@ states and joystick samples. One step:
    a safety option, on by default) the change from the previous command is scaled
    uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
    brakes at up to ``qdd_max`` on its own. The command is always finite.
+   **The slew's servo** (``ControllerParams.slew_servo``, off by default): the slew's valve gets that
+   command plus its rate's and drive's errors from a well-damped model of the slew
+   (:mod:`motionlib.control.joint_servo`, with ``CraneState.drive``): the step returns the valves' command
+   (``ControllerStatus.valve_cmd``), the command itself is ``ControllerStatus.qd_cmd``.
 
 6. **Force feedback** (``ControllerParams.feedback``, off by default; 001 section 2.5, eq. 6):
    the sensed contact force (the accommodation source's force sensor) plus the obstacle guard's
@@ -109,6 +113,7 @@ from .control_types import (
 )
 from .force_feedback import ForceFeedback
 from .joint_feedforward import joint_feedforward
+from .joint_servo import MODEL_DAMPING, VALVE_COMMAND, servo_array, servo_command
 from .mixer import Mixer, MixerParams, ObstacleGuard
 from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
@@ -209,6 +214,9 @@ class SharedController:
         )
         #: The command law's state (:data:`motionlib.control.command.COMMAND_STATE`), behind :attr:`status`.
         self.state = np.zeros(len(COMMAND_STATE))
+        #: The slew's servo (:data:`motionlib.control.joint_servo.SERVO`; passes the command through when off).
+        self.servo = servo_array(prm.slew_servo, self.joint_omega_rad_s()[0], prm.valve_lag_s, prm.dt_s,
+                                 (float(crane.qd_min[0]), float(crane.qd_max[0])))
         st0 = ControllerStatus()
         self.state[[S_C_O, S_S_P, S_DEV, S_SIGMA]] = st0.c_o, st0.s_p, st0.deviation_m, st0.sigma_min
         if joystick is None:
@@ -286,7 +294,7 @@ class SharedController:
         feedforward = None
         if self.params.joint_feedforward:
             feedforward = joint_feedforward(trajectory, self.crane, self.joint_omega_rad_s(),
-                                            self.params.joint_damping_ratio, self.params.valve_lag_s,
+                                            self.joint_model_damping(), self.params.valve_lag_s,
                                             prm.time_preview_s, self.params.dt_s)
         tracker = PathTracker(trajectory, self.crane, replace(
             prm, end_gain_per_s=min(prm.end_gain_per_s, k_max), lateral_gain_per_s=min(prm.lateral_gain_per_s, k_max)),
@@ -309,6 +317,12 @@ class SharedController:
         if omega is None:
             return (2.0 * math.pi * (hz or DEFAULT_NATURAL_FREQ_HZ),) * 4
         return tuple(float(w) for w in omega[:4])
+
+    def joint_model_damping(self) -> tuple[float, float, float, float]:
+        """The damping ratios (4,) of the joints' model as the joints' feedforward inverts it: ``joint_damping_ratio``,
+        the slew's servo model's :data:`~motionlib.control.joint_servo.MODEL_DAMPING` with ``slew_servo``."""
+        z = self.params.joint_damping_ratio
+        return (MODEL_DAMPING if self.params.slew_servo else z, z, z, z)
 
     def position_gain_max(self, q: Any) -> float:
         """Largest position-loop gain (1/s) on the joint model, loaded by the grapple, at configurations ``q`` (n, 4).
@@ -438,8 +452,10 @@ class SharedController:
         Returns
         -------
         ndarray, shape (4,)
-            Joint velocity command (rad/s, rad/s, rad/s, m/s): finite, within the velocity
-            limits, within ``qdd_max`` of the previous command, braking before position limits.
+            The valves' command (rad/s, rad/s, rad/s, m/s; ``status.valve_cmd``): the joint velocity command
+            ``status.qd_cmd`` (finite, within the velocity limits, within ``qdd_max`` of the previous command,
+            braking before position limits), the slew's through its servo with ``slew_servo`` (finite, within the
+            slew's velocity limits).
         """
         cs = self.state
         q, qd_meas = _floats4(state.q), _floats4(state.qd)
@@ -471,6 +487,7 @@ class SharedController:
                 self.events.append(Event(t, "bad_state"))
             self._ramp_to_zero()
             cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_FLAGS] = int(_STOPPED), 0.0, 1.0, flags
+            servo_command(self.servo, cs[S_CMD], math.nan, math.nan)
             return self._publish()
 
         self._swing = _swing_offset(getattr(state, "swing", None))
@@ -488,17 +505,19 @@ class SharedController:
             finish_command(self.consts, cs, _ZERO4, q, qd_meas, flags)
         else:
             self._command(ctx, abort, flags)
+        servo_command(self.servo, cs[S_CMD], qd_meas[0], _slew_drive(getattr(state, "drive", None)))
         return self._publish()
 
     def _publish(self) -> np.ndarray:
-        """Copy the state array into :attr:`status`; the command (4,)."""
+        """Copy the state array and the slew's servo's output into :attr:`status`; the valves' command (4,)."""
         (c1, c2, c3, c4, _, authority, c_a, c_o, sigma, flags, s_p, dev, speed_o, t, px, py,
          pz) = self.state.tolist()
         st = self.status
         st.t, st.authority, st.c_a, st.c_o = t, _AUTHORITIES[int(authority)], c_a, c_o
         st.sigma_min, st.flags = sigma, int(flags)
         st.s_p, st.deviation_m, st.speed_o, st.p_tip, st.qd_cmd = s_p, dev, speed_o, (px, py, pz), (c1, c2, c3, c4)
-        return np.array(st.qd_cmd)
+        st.valve_cmd = (float(self.servo[VALVE_COMMAND]), c2, c3, c4)
+        return np.array(st.valve_cmd)
 
     def rotator_step(self, q5: float, qd5: float, inputs: OperatorInput | None) -> float:
         """The grapple rotator's command (rad/s) of the step just made (:mod:`motionlib.control.rotator`).
@@ -670,6 +689,16 @@ def _floats4(v: Any) -> Vec4:
     if len(a) != 4:
         return (math.nan, math.nan, math.nan, math.nan)
     return (a[0], a[1], a[2], a[3])
+
+
+def _slew_drive(drive: Any) -> float:
+    """The slew's measured drive (rad/s^2) of ``CraneState.drive``; NaN when it is not measured."""
+    if drive is None:
+        return math.nan
+    try:
+        return float(drive[0])
+    except (TypeError, ValueError, IndexError):
+        return math.nan
 
 
 def _swing_offset(r: Any) -> tuple[float, float]:

@@ -51,8 +51,8 @@ from ..planning.trajectory import Trajectory
 _PAD = 2
 
 
-def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequence[float], zeta: float,
-                      valve_lag_s: float, preview_s: float, dt_s: float) -> np.ndarray:
+def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequence[float],
+                      zeta: float | Sequence[float], valve_lag_s: float, preview_s: float, dt_s: float) -> np.ndarray:
     """The joints' feedforward ``delta(t)`` (n, 4) (rad/s, m/s) on the plan's clock, every ``dt_s`` from 0 (eq. 1).
 
     Parameters
@@ -64,8 +64,10 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
         ``joint_inertia`` for the load term).
     omega_rad_s : sequence of 4 float
         Each joint's natural frequency ``omega_i`` (rad/s).
-    zeta : float
-        The joints' damping ratio.
+    zeta : float or sequence of 4 float
+        The joints' damping ratio, one for all or each joint's (the slew's servo model's with
+        ``ControllerParams.slew_servo``: :meth:`SharedController.joint_model_damping
+        <motionlib.control.controller.SharedController.joint_model_damping>`).
     valve_lag_s : float
         The valve spool's time constant ``tau_v`` (s).
     preview_s : float
@@ -79,8 +81,10 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
         ``delta`` at ``t_k = k dt_s``, ``k = 0 .. n - 1``, ``t_{n-1} >= T`` (the plan's duration).
     """
     omega = np.asarray(omega_rad_s, dtype=np.float64)
-    if omega.shape != (4,) or not np.all(omega > 0.0) or not zeta > 0.0 or not valve_lag_s >= 0.0:
-        raise InputError(f"joint model: expected 4 natural frequencies > 0, zeta > 0 and a lag >= 0, got "
+    damping = np.broadcast_to(np.asarray(zeta, dtype=np.float64), (4,)) if np.size(zeta) in (1, 4) else None
+    if (omega.shape != (4,) or not np.all(omega > 0.0) or damping is None or not np.all(damping > 0.0)
+            or not valve_lag_s >= 0.0):
+        raise InputError(f"joint model: expected 4 natural frequencies > 0, zeta > 0 (one or 4) and a lag >= 0, got "
                          f"{omega.tolist()}, {zeta}, {valve_lag_s}")
     if not dt_s > 0.0 or not preview_s >= 0.0:
         raise InputError(f"dt_s, preview_s: expected > 0 and >= 0, got {dt_s}, {preview_s}")
@@ -105,6 +109,6 @@ def joint_feedforward(trajectory: Trajectory, crane: Crane, omega_rad_s: Sequenc
         reach = np.stack([tip_velocity(crane, q, np.broadcast_to(e, q.shape))[:, :2] for e in np.eye(4)], axis=2)
         load = np.einsum("nij,ni->nj", reach, force) / np.asarray(model.joint_inertia[:4], dtype=np.float64)
     qddd = np.gradient(qdd, dt_s, axis=0)
-    y = qd + (2.0 * zeta / omega) * qdd + (qddd - np.gradient(load, dt_s, axis=0)) / omega ** 2
+    y = qd + (2.0 * damping / omega) * qdd + (qddd - np.gradient(load, dt_s, axis=0)) / omega ** 2
     u = y + valve_lag_s * np.gradient(y, dt_s, axis=0)
     return np.ascontiguousarray((u - at(t + preview_s, trajectory.qd))[_PAD:_PAD + n])

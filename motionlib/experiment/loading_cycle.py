@@ -32,7 +32,7 @@ from __future__ import annotations
 import enum
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -157,11 +157,10 @@ class LoadingCycleOptions:
         (``FORWARDER_SCENARIO.grapple_still_rad``). Off, the swing decays on its own (the log-loading
         experiment runs without it, as 000 describes no anti-sway).
     per_joint_stiffness : bool
-        Each joint its own oil-spring frequency in the plant and the controller (``RunOptions.per_joint_stiffness``),
-        and plans whose jerk box is one period of the slowest joint's mode
-        (:meth:`~motionlib.model.crane_model.CraneModel.slowest_joint_period_s`, the forwarder's slew: 1.25 s)
-        unless the spec's planner sets ``jerk_box_s``. Off by default (every joint 2.5 Hz, 0.4 s box):
-        docs/runtime.md, "Per-joint natural frequencies", gives the cycle measured both ways.
+        Each joint its own oil-spring frequency in the plant and the controller (``RunOptions.per_joint_stiffness``:
+        with the slew's servo, :mod:`motionlib.control.joint_servo`), the plans as the spec has them (its 0.4 s
+        jerk box). Off by default (every joint 2.5 Hz): docs/runtime.md, "The slew's model-following servo", gives
+        the cycle measured both ways and with the jerk box one period of the slew's mode.
     """
 
     spec: Path = DEFAULT_CYCLE_SPEC
@@ -369,8 +368,6 @@ def loading_cycle(
     opts = options or LoadingCycleOptions()
     t0 = time.perf_counter()
     spec = LibrarySpec.load(opts.spec)
-    if opts.per_joint_stiffness and "jerk_box_s" not in spec.planner:
-        spec = replace(spec, planner={**spec.planner, "jerk_box_s": spec.crane.model.slowest_joint_period_s()})
     run_opts = RunOptions(
         time_limit_s=opts.time_limit_s, swing_damping=opts.swing_damping, scenario=opts.scenario, seed=opts.seed,
         per_joint_stiffness=opts.per_joint_stiffness,

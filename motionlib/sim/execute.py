@@ -123,7 +123,9 @@ class ExecuteOptions:
         """These options on the plant with each joint's own oil-spring frequency, with the controller for it.
 
         The plant's ``SimParams(natural_freq_hz=None)``, the controller's position gain and joint feedforward
-        from the same frequencies (``joint_natural_freq_hz=None``, ``joint_feedforward=True``), its valve dead band
+        from the same frequencies (``joint_natural_freq_hz=None``, ``joint_feedforward=True``), the slew's
+        model-following servo on its drive pressure (``slew_servo=True``: the soft slew and the grapple swinging
+        across the boom ring less; docs/runtime.md, "The slew's model-following servo"), its valve dead band
         compensated (``valve_deadband_frac``: the plant's ``deadband_frac``; the slow slew's position gain stalls
         the tip past the arrival tolerance without it) and, where the swing damping is on,
         ``PER_JOINT_SWING_DAMPING`` (docs/runtime.md, "Per-joint natural frequencies").
@@ -131,7 +133,8 @@ class ExecuteOptions:
         damping = PER_JOINT_SWING_DAMPING if self.controller.swing_damping > 0.0 else 0.0
         return replace(self, sim=replace(self.sim, natural_freq_hz=None),
                        controller=replace(self.controller, joint_natural_freq_hz=None, joint_feedforward=True,
-                                          swing_damping=damping, valve_deadband_frac=self.sim.deadband_frac))
+                                          slew_servo=True, swing_damping=damping,
+                                          valve_deadband_frac=self.sim.deadband_frac))
 
 
 class RunStatus(enum.Enum):

@@ -62,13 +62,14 @@ from ..control.command import (
 )
 from ..control.control_types import OperatorInput
 from ..control.controller import SharedController
+from ..control.joint_servo import servo_command
 from ..control.mixer import GUARD_CACHE, MIXER_STATE, guard_clear
 from ..control.runlog import COLUMNS, RunLog
 from ..control.sources import CartesianJoystick, JointJoystick, PathTrackerSource, cartesian_rate, joint_rate
 from ..control.tracker import N_TRACKER_CONSTS, NO_FEEDFORWARD, TABLE_COLUMNS, TRACKER_STATE, tracker_update
 from ..jit import njit
 from ..model.fast_kinematics import tip_point_jacobian, tip_speed
-from .hydraulics import Q, V
+from .hydraulics import Q, S, V
 from .operator_model import (
     DONE,
     N_OPERATOR_CONSTS,
@@ -85,6 +86,7 @@ from .plant import (
     C_T,
     GRAPPLE,
     P_NOISE,
+    P_SECOND,
     TIP,
     SimulatedCrane,
     plant_period,
@@ -143,6 +145,7 @@ class ControllerArrays(NamedTuple):
     tracker_consts: np.ndarray
     tracker_state: np.ndarray
     guard: np.ndarray
+    servo: np.ndarray
 
 
 class OperatorArrays(NamedTuple):
@@ -204,7 +207,7 @@ def controller_arrays(controller: SharedController) -> ControllerArrays:
         tconsts, tstate = np.zeros(N_TRACKER_CONSTS), np.zeros(len(TRACKER_STATE))
     return ControllerArrays(controller.consts, controller.state, controller.mixer.consts, controller.mixer.state,
                             controller.kin.g, gains, setup, table, feedforward, tconsts, tstate,
-                            guard.cache if guard is not None else np.zeros(len(GUARD_CACHE)))
+                            guard.cache if guard is not None else np.zeros(len(GUARD_CACHE)), controller.servo)
 
 
 def operator_arrays(model: Any) -> OperatorArrays:
@@ -523,6 +526,9 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
         )
         if event == EV_HANDOVER:
             _event(events, counters, t, EV_HANDOVER, ctl.mixer_state[_MX_T_O])
+        # the valves' command: the slew's servo (motionlib.control.joint_servo) on the command law's command
+        drive = plant.joints[S, 0] if plant.prm[P_SECOND] != 0.0 else math.nan  # no oil spring: not measured
+        cmd = (servo_command(ctl.servo, cs[S_CMD], qd[0], drive), cs[S_CMD + 1], cs[S_CMD + 2], cs[S_CMD + 3])
         k = int(counters[N_ROWS])
         row = rows[k]
         row[0] = t
@@ -531,7 +537,6 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
         row[13], row[14], row[15], row[16] = cs[S_C_A], cs[S_C_O], cs[S_S_P], cs[S_DEV]
         row[17], row[18], row[19] = cs[S_FLAGS], cs[S_AUTHORITY], swing_rad
         counters[N_ROWS] = k + 1
-        cmd = (cs[S_CMD], cs[S_CMD + 1], cs[S_CMD + 2], cs[S_CMD + 3])
         plant_period(cmd, 0.0, dt, plant.valve, plant.prm, plant.clock, plant.normals, plant.u, plant.joints,
                      plant.relief, plant.w2, plant.zw2, plant.displacement, plant.q_min, plant.q_max, plant.at_stop,
                      plant.g, plant.pend, plant.inv_inertia, plant.planes)

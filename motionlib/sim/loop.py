@@ -172,9 +172,9 @@ def run_closed_loop(
         if rotator:  # the grapple rotator's axis (:mod:`motionlib.control.rotator`)
             r_cmd = controller.rotator_step(sim.rotator_q, sim.rotator_qd, inp)
             log.append_rotator(sim.rotator_q, sim.rotator_qd, r_cmd)
-            sim.advance(status.qd_cmd, dt, r_cmd)
+            sim.advance(status.valve_cmd, dt, r_cmd)
         else:
-            sim.advance(status.qd_cmd, dt)  # the step's command, as a tuple of floats
+            sim.advance(status.valve_cmd, dt)  # the valves' command of the step, as a tuple of floats
         if (
             vx * vx + vy * vy + vz * vz < settle_v2
             and amplitude < settle_swing

@@ -128,6 +128,7 @@ from ..model.kinematics import Crane
 from ..model.scene import Obstacle
 from .contact import ContactParams, ContactSurfaces, penalty_force
 from .hydraulics import A, HydraulicJoints, Q, V, Y, actuators_substep
+from .hydraulics import S as DRIVE
 
 MODELS = ("second_order", "first_order")
 
@@ -756,15 +757,26 @@ class SimulatedCrane:
                                     doc="Largest contact force (N) on the grapple so far.")
 
     @property
+    def drive(self) -> tuple[float, float, float, float] | None:
+        """Each arm joint's drive ``s``, its actuator's force per unit inertia (rad/s^2, m/s^2; step 3 of
+        :mod:`motionlib.sim.hydraulics`), as pressure transducers give it; None on the first-order model (no oil
+        spring)."""
+        if not self.joints.second_order:
+            return None
+        s = self.arrays.joints[DRIVE, :4].tolist()
+        return (s[0], s[1], s[2], s[3])
+
+    @property
     def fixed_planes(self) -> bool:
         """The contact surfaces do not depend on where the grapple is (none, or the ground only)."""
         return self._surfaces is None or not self._surfaces.has_obstacles
 
     def state(self) -> CraneState:
-        """The measured state (time, joint positions and velocities, the grapple's offset from the tip, the rotator)."""
+        """The measured state (time, joint positions and velocities, the grapple's offset from the tip, the rotator,
+        the joints' drives)."""
         g, p = self.grapple, self.tip
         return CraneState(self.t, self.q, self.qd, (g[0] - p[0], g[1] - p[1], g[2] - p[2]),
-                          (self.rotator_q, self.rotator_qd))
+                          (self.rotator_q, self.rotator_qd), self.drive)
 
     @property
     def swing_rad(self) -> float:

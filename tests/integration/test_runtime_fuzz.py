@@ -32,7 +32,14 @@ def test_the_checks_see_a_violation(monkeypatch):
     """A controller whose command jumps past the limits is counted: the checks are not vacuous."""
     from motionlib.control.controller import SharedController
 
-    step = SharedController.step
-    monkeypatch.setattr(SharedController, "step", lambda self, state, inp: np.asarray(step(self, state, inp)) + 10)
+    publish = SharedController._publish
+
+    def jumped(self):  # the joint velocity command and the valves' command both 10 past
+        publish(self)
+        st = self.status
+        st.qd_cmd, st.valve_cmd = (tuple(c + 10.0 for c in st.qd_cmd), tuple(c + 10.0 for c in st.valve_cmd))
+        return np.array(st.valve_cmd)
+
+    monkeypatch.setattr(SharedController, "_publish", jumped)
     _, _, bad = runtime_fuzz.run_sequence(1, 0)
     assert bad["velocity"] > 0 and bad["acceleration"] > 0

@@ -33,9 +33,9 @@ def out_move():
     return crane, result.trajectory
 
 
-def _joint_response(omega: float, u: np.ndarray, t: np.ndarray) -> np.ndarray:
+def _joint_response(omega: float, u: np.ndarray, t: np.ndarray, zeta: float = ZETA) -> np.ndarray:
     """Velocity of one joint under the valve command ``u``: ``(tau_v s + 1)(s^2 + 2 zeta w s + w^2) V = w^2 U``."""
-    den = np.polymul([TAU_V, 1.0], [1.0, 2.0 * ZETA * omega, omega ** 2])
+    den = np.polymul([TAU_V, 1.0], [1.0, 2.0 * zeta * omega, omega ** 2])
     return lsim(([omega ** 2], den), u, t)[1]
 
 
@@ -114,10 +114,27 @@ def test_the_tracker_passes_delta_to_the_joints(out_move):
     np.testing.assert_allclose(np.subtract(fed.pd_a, plain.pd_a), jac @ delta[0], atol=1e-12)
 
 
+def test_each_joint_may_have_its_own_damping_ratio(out_move):
+    """The slew's servo model (``zeta_m`` 0.9, motionlib.control.joint_servo) for the slew, 0.35 for the others: the
+    slew's column drives a 0.9-damped model along the plan; the others are the one-ratio table's."""
+    crane, traj = out_move
+    bare = Crane(replace(crane.model, load_mass=None))
+    omega = crane.model.natural_frequencies_rad_s()[:4]
+    mixed = joint_feedforward(traj, bare, omega, (0.9, ZETA, ZETA, ZETA), TAU_V, 0.0, DT)
+    np.testing.assert_array_equal(mixed[:, 1:], joint_feedforward(traj, bare, omega, ZETA, TAU_V, 0.0, DT)[:, 1:])
+    t = np.arange(len(mixed)) * DT
+    qd = np.interp(t, traj.t, traj.qd[:, 0], right=0.0)
+    lag = np.abs(_joint_response(omega[0], qd, t, 0.9) - qd).max()
+    assert np.abs(_joint_response(omega[0], qd + mixed[:, 0], t, 0.9) - qd).max() < 0.1 * lag
+    assert np.abs(_joint_response(omega[0], qd + mixed[:, 0], t) - qd).max() > 0.1 * lag  # 0.35's model is not
+
+
 def test_bad_joint_models_are_refused(out_move):
     crane, traj = out_move
     with pytest.raises(InputError, match="joint model"):
         joint_feedforward(traj, crane, (1.0, 2.0, 0.0, 3.0), ZETA, TAU_V, 0.0, DT)
+    with pytest.raises(InputError, match="joint model"):
+        joint_feedforward(traj, crane, (1.0, 2.0, 3.0, 4.0), (0.3, 0.3, 0.3), TAU_V, 0.0, DT)
     with pytest.raises(InputError, match="feedforward"):
         PathTracker(traj, crane, feedforward=np.full((3, 4), np.nan))
 
