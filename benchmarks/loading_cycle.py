@@ -40,7 +40,7 @@ def main() -> None:
     ap.add_argument("--logs", type=int, default=None)
     ap.add_argument("--no-swing-damping", dest="swing_damping", action="store_false")
     ap.add_argument("--per-joint-stiffness", action="store_true",
-                    help="each joint its own oil-spring frequency, plans with the slowest joint's period as jerk box")
+                    help="each joint its own oil-spring frequency (plant and controller, with the slew's servo)")
     args = ap.parse_args()
     result = loading_cycle(LoadingCycleOptions(logs=args.logs, seed=args.seed, swing_damping=args.swing_damping,
                                                per_joint_stiffness=args.per_joint_stiffness))

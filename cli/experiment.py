@@ -95,8 +95,8 @@ def log_loading(
 @click.option("--swing-damping/--no-swing-damping", default=True, show_default=True,
               help="The controller's swing damping (on, as in motionlib execute).")
 @click.option("--per-joint-stiffness", is_flag=True,
-              help="Each joint its own oil-spring frequency from the crane file (plant and controller), and plans "
-                   "with a jerk box of the slowest joint's period; default: every joint 2.5 Hz (docs/runtime.md).")
+              help="Each joint its own oil-spring frequency from the crane file (plant and controller, with the "
+                   "slew's servo); default: every joint 2.5 Hz (docs/runtime.md).")
 @click.option("--time-limit", default=600.0, show_default=True,
               type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one run (s).")
