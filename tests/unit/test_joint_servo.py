@@ -21,6 +21,7 @@ from motionlib.control.joint_servo import (
     servo_array,
     servo_command,
 )
+from motionlib.errors import InputError
 from motionlib.model.kinematics import Crane
 from motionlib.sim.plant import SimParams, SimulatedCrane
 
@@ -60,7 +61,7 @@ def test_passes_the_command_through_when_off_or_not_measured():
     assert on[SERVO.index("started")] == 0.0
     assert servo_command(on, 0.2, 0.1, 0.5) == 0.2  # restarted at the measured state: no error yet
     assert on[SERVO.index("v_m")] > 0.1  # and driven by the command from there
-    with pytest.raises(ValueError):
+    with pytest.raises(InputError, match="servo"):
         servo_array(True, 0.0, TAU, DT)
 
 
