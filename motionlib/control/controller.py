@@ -49,7 +49,8 @@ states and joystick samples. One step:
    **The slew's servo** (``ControllerParams.slew_servo``, off by default): the slew's valve gets that
    command plus its rate's and drive's errors from a well-damped model of the slew
    (:mod:`motionlib.control.joint_servo`, with ``CraneState.drive``): the step returns the valves' command
-   (``ControllerStatus.valve_cmd``), the command itself is ``ControllerStatus.qd_cmd``.
+   (``ControllerStatus.valve_cmd``), the command itself is ``ControllerStatus.qd_cmd``. Stopped (stale input,
+   bad state), the valves get the command itself.
 
 6. **Force feedback** (``ControllerParams.feedback``, off by default; 001 section 2.5, eq. 6):
    the sensed contact force (the accommodation source's force sensor) plus the obstacle guard's
@@ -500,12 +501,13 @@ class SharedController:
         ctx.tip_speed = tip_speed(jac, qd_meas)
         cs[S_P:S_P + 3] = p
 
-        if stale:  # target 0, reached within the limits
+        if stale:  # target 0, reached within the limits; the slew's servo passes it through (a stop is the plant's)
             cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_SPEED_O] = int(_STOPPED), 0.0, 1.0, 0.0
             finish_command(self.consts, cs, _ZERO4, q, qd_meas, flags)
+            servo_command(self.servo, cs[S_CMD], math.nan, math.nan)
         else:
             self._command(ctx, abort, flags)
-        servo_command(self.servo, cs[S_CMD], qd_meas[0], _slew_drive(getattr(state, "drive", None)))
+            servo_command(self.servo, cs[S_CMD], qd_meas[0], _slew_drive(getattr(state, "drive", None)))
         return self._publish()
 
     def _publish(self) -> np.ndarray:
