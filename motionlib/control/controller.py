@@ -507,7 +507,7 @@ class SharedController:
             servo_command(self.servo, cs[S_CMD], math.nan, math.nan)
         else:
             self._command(ctx, abort, flags)
-            servo_command(self.servo, cs[S_CMD], qd_meas[0], _slew_drive(getattr(state, "drive", None)))
+            servo_command(self.servo, cs[S_CMD], qd_meas[0], _floats4(getattr(state, "drive", None))[0])
         return self._publish()
 
     def _publish(self) -> np.ndarray:
@@ -691,16 +691,6 @@ def _floats4(v: Any) -> Vec4:
     if len(a) != 4:
         return (math.nan, math.nan, math.nan, math.nan)
     return (a[0], a[1], a[2], a[3])
-
-
-def _slew_drive(drive: Any) -> float:
-    """The slew's measured drive (rad/s^2) of ``CraneState.drive``; NaN when it is not measured."""
-    if drive is None:
-        return math.nan
-    try:
-        return float(drive[0])
-    except (TypeError, ValueError, IndexError):
-        return math.nan
 
 
 def _swing_offset(r: Any) -> tuple[float, float]:
