@@ -1,7 +1,7 @@
 """Benchmark of the executed time: library motions run until they have arrived and stopped swinging.
 
 Run: ``python benchmarks/executed.py [--library PATH] [--rows 20] [--baseline] [--no-swing-settle]
-[--no-swing-damping] [--m1] [--per-joint-stiffness]``
+[--no-swing-damping] [--m1] [--uniform-stiffness] [--jerk-box S]``
 
 The figure of merit of a motion library is the *executed* time of its motions (issue 22 item 4):
 a motion counts when the grapple has arrived and stopped swinging, which is when
@@ -10,9 +10,9 @@ and the grapple's swing below ``LoopOptions.settle_swing_rad`` for ``settle_hold
 
 ``--rows N`` rows of the library (default 20), evenly spaced over its rows (``round(linspace(0,
 n - 1, N))``, deterministic), each run by the public :func:`motionlib.execute` in M6 with the passive
-operator (hands off: the automation alone) on the default simulated crane (second-order hydraulics,
-swinging grapple, no valve noise), seed 0, 40 s time limit, the obstacle guard on. Per row: the
-planned duration, the settle (cycle) time, their ratio (``RunSummary.settle_ratio``), the overshoot
+operator (hands off: the automation alone) on the default simulated crane (second-order hydraulics, each joint its
+own oil-spring frequency, swinging grapple, no valve noise), seed 0, 40 s time limit, the obstacle guard on. Per
+row: the planned duration, the settle (cycle) time, their ratio (``RunSummary.settle_ratio``), the overshoot
 past the end point along the final direction (``RunSummary.overshoot_m``), the residual swing at
 the settle time and whether the run settled. Then the median and max ratio and the max overshoot
 against the issue's targets: ratio median <= 1.15, max <= 1.35; overshoot <= 0.05 m.
@@ -34,11 +34,10 @@ With the default controller's swing damping the grapple has mostly stopped by th
 so the two agree; ``--no-swing-damping`` (``ControllerParams(swing_damping=0)``, ``motionlib execute
 --no-swing-damping``) runs the controller without it, where the tip rests long before the swing decays.
 
-``--per-joint-stiffness`` runs every row on the plant with each joint's own oil-spring frequency with the
-controller for it (``ExecuteOptions.with_per_joint_stiffness``), each row's path re-timed
-(:meth:`Planner.plan_along`) with the jerk box one period of the crane's slowest joint mode
-(``CraneModel.slowest_joint_period_s``); the ratio is against that plan, and the totals add the settle time against
-the library's own plan (docs/runtime.md, "Per-joint natural frequencies").
+``--uniform-stiffness`` runs every row on the uniform plant (every joint 2.5 Hz) with the controller tuned there
+(``ExecuteOptions.with_uniform_stiffness``). ``--jerk-box S`` re-times each row's path (:meth:`Planner.plan_along`)
+with a jerk box of S seconds instead of the library's own; the ratio is against that plan, and the totals add the
+settle time against the library's own plan (docs/runtime.md, "Per-joint natural frequencies").
 """
 
 from __future__ import annotations
@@ -133,8 +132,10 @@ def main() -> None:
                         help="also run each row with the old settle definition (tip speed only) for comparison")
     parser.add_argument("--no-swing-damping", action="store_true", help="the controller without its swing damping")
     parser.add_argument("--m1", action="store_true", help="also run each move by the model expert in M1 (total jerk)")
-    parser.add_argument("--per-joint-stiffness", action="store_true",
-                        help="each joint its own oil-spring frequency; paths re-timed with the slowest joint's period")
+    parser.add_argument("--uniform-stiffness", action="store_true",
+                        help="every joint 2.5 Hz, with the controller tuned there (the default: each joint its own)")
+    parser.add_argument("--jerk-box", type=float, default=None, metavar="S",
+                        help="re-time each row's path with this jerk box (s) instead of the library's")
     args = parser.parse_args()
     if args.rows < 1:
         parser.error("--rows: expected >= 1")
@@ -143,11 +144,12 @@ def main() -> None:
     swing_tol = LoopOptions().settle_swing_rad
     options = ExecuteOptions(controller=ControllerParams(swing_damping=0.0) if args.no_swing_damping
                              else ControllerParams())
-    box = None
-    if args.per_joint_stiffness:
-        options, box = options.with_per_joint_stiffness(), lib.crane.model.slowest_joint_period_s()
+    if args.uniform_stiffness:
+        options = options.with_uniform_stiffness()
+    box = args.jerk_box
     controller, sim = options.controller, options.sim
-    plant = f"per-joint plant, paths re-timed with a {box:.3f} s jerk box" if box else "default plant"
+    plant = "uniform 2.5 Hz plant" if args.uniform_stiffness else "per-joint plant"
+    plant += f", paths re-timed with a {box:.3f} s jerk box" if box else ""
     print(f"library {args.library}: {len(lib)} rows, running {rows.size}; M6, passive operator, {plant}, "
           f"swing damping {controller.swing_damping:g}, seed 0, time limit {TIME_LIMIT_S:g} s")
     print(f"settled = tip < {LoopOptions().settle_speed_m_s:g} m/s and swing < {swing_tol:g} rad for "

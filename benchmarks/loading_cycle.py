@@ -1,6 +1,6 @@
 """Benchmark of the forwarder loading cycle against 003 Table 3.1 and issue 22's targets.
 
-Run: ``python benchmarks/loading_cycle.py [--seed S] [--logs N] [--no-swing-damping] [--per-joint-stiffness]``
+Run: ``python benchmarks/loading_cycle.py [--seed S] [--logs N] [--no-swing-damping] [--uniform-stiffness]``
 
 Runs :func:`motionlib.loading_cycle` with its default runs (automation alone in M6, the model
 expert in M1 and in M6) over the pile's logs (default all four) and prints per run the median of
@@ -39,8 +39,9 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--logs", type=int, default=None)
     ap.add_argument("--no-swing-damping", dest="swing_damping", action="store_false")
-    ap.add_argument("--per-joint-stiffness", action="store_true",
-                    help="each joint its own oil-spring frequency (plant and controller, with the slew's servo)")
+    ap.add_argument("--uniform-stiffness", dest="per_joint_stiffness", action="store_false",
+                    help="every joint 2.5 Hz, with the controller tuned there (default: each joint its own oil-spring "
+                         "frequency, with the slew's servo)")
     args = ap.parse_args()
     result = loading_cycle(LoadingCycleOptions(logs=args.logs, seed=args.seed, swing_damping=args.swing_damping,
                                                per_joint_stiffness=args.per_joint_stiffness))

@@ -1,6 +1,6 @@
 """Runtime fuzzing: random operator sequences through every mode M1-M6 on the simulated lab crane.
 
-Run: ``python benchmarks/runtime_fuzz.py [--n 100000] [--seed 0] [--workers 2] [--per-joint-stiffness]``
+Run: ``python benchmarks/runtime_fuzz.py [--n 100000] [--seed 0] [--workers 2] [--uniform-stiffness]``
 
 Sequence ``i`` (a pure function of ``(seed, i)``) runs in mode ``M1..M6[i % 6]`` from a
 library-like motion's start with the motion started (half of them) or from a random
@@ -14,7 +14,7 @@ configuration without one, and feeds the controller 1-4 segments of operator inp
 
 Every step is checked independently of the controller's own flags: the joint velocity command
 (``ControllerStatus.qd_cmd``) is finite, inside ``[qd_min, qd_max]`` and within ``qdd_max * dt`` of the previous
-one; the valves' command the step returns (the slew's servo's output on the per-joint plant) is finite and inside
+one; the valves' command the step returns (the slew's servo's output) is finite and inside
 ``[qd_min, qd_max]``; the simulated
 joints stay inside their limits without hitting an end stop. The table gives, per mode, the
 sequences, steps and the count of each violation. Targets (issue 13): 0 non-finite commands,
@@ -65,9 +65,9 @@ def _axes(rng: np.random.Generator) -> tuple[float, ...]:
     return tuple(SPECIAL[int(k)] for k in rng.integers(len(SPECIAL), size=4))
 
 
-def run_sequence(seed: int, i: int, per_joint: bool = False) -> tuple[str, int, Counter]:
-    """Run sequence ``i``; its mode, its number of steps and the violations counted. ``per_joint``: on the plant with
-    each joint's own oil-spring frequency, with the controller for it (``ExecuteOptions.with_per_joint_stiffness``)."""
+def run_sequence(seed: int, i: int, uniform: bool = False) -> tuple[str, int, Counter]:
+    """Run sequence ``i``; its mode, its number of steps and the violations counted. ``uniform``: on the plant with
+    every joint 2.5 Hz, with the controller tuned there (``ExecuteOptions.with_uniform_stiffness``)."""
     from motionlib.control.control_types import OperatorInput
     from motionlib.control.controller import SharedController
     from motionlib.sim.execute import ExecuteOptions
@@ -76,7 +76,7 @@ def run_sequence(seed: int, i: int, per_joint: bool = False) -> tuple[str, int, 
     crane, traj = _setup()
     rng = np.random.default_rng([seed, i])
     mode = MODES[i % len(MODES)]
-    options = ExecuteOptions().with_per_joint_stiffness() if per_joint else ExecuteOptions()
+    options = ExecuteOptions().with_uniform_stiffness() if uniform else ExecuteOptions()
     ctl = SharedController(crane, mode, options.controller)
     if rng.random() < 0.5:
         q0 = traj.q[0]
@@ -119,11 +119,11 @@ def run_sequence(seed: int, i: int, per_joint: bool = False) -> tuple[str, int, 
     return mode, steps, bad
 
 
-def run_range(seed: int, start: int, stop: int, per_joint: bool = False) -> dict[str, list[int]]:
+def run_range(seed: int, start: int, stop: int, uniform: bool = False) -> dict[str, list[int]]:
     """Sequences ``start..stop-1``: per mode ``[sequences, steps, *VIOLATIONS counts]``."""
     out = {m: [0] * (2 + len(VIOLATIONS)) for m in MODES}
     for i in range(start, stop):
-        mode, steps, bad = run_sequence(seed, i, per_joint)
+        mode, steps, bad = run_sequence(seed, i, uniform)
         row = out[mode]
         row[0] += 1
         row[1] += steps
@@ -137,20 +137,20 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=100_000, help="operator sequences")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--per-joint-stiffness", action="store_true",
-                        help="each joint its own oil-spring frequency, with the controller for it")
+    parser.add_argument("--uniform-stiffness", action="store_true",
+                        help="every joint 2.5 Hz, with the controller tuned there (default: each joint its own)")
     args = parser.parse_args()
     chunk = max(1, min(1000, args.n // (4 * args.workers) or 1))
     total = {m: [0] * (2 + len(VIOLATIONS)) for m in MODES}
     t0 = time.perf_counter()
     with ProcessPoolExecutor(args.workers) as pool:
-        futures = [pool.submit(run_range, args.seed, a, min(a + chunk, args.n), args.per_joint_stiffness)
+        futures = [pool.submit(run_range, args.seed, a, min(a + chunk, args.n), args.uniform_stiffness)
                    for a in range(0, args.n, chunk)]
         for fut in futures:
             for m, row in fut.result().items():
                 total[m] = [a + b for a, b in zip(total[m], row, strict=True)]
     wall = time.perf_counter() - t0
-    plant = "per-joint plant" if args.per_joint_stiffness else "default plant"
+    plant = "uniform 2.5 Hz plant" if args.uniform_stiffness else "per-joint plant"
     print(f"{args.n} operator sequences, seed {args.seed}, {args.workers} workers, {plant}, {wall:.0f} s wall")
     print(f"{'mode':<6}{'sequences':>10}{'steps':>11}" + "".join(f"{v:>15}" for v in VIOLATIONS))
     for m in (*MODES, "all"):

@@ -53,9 +53,10 @@ from .targets import check_target_options, open_loop_report, select_row
 @click.option("--no-guard", is_flag=True, help="Disable the obstacle guard c_o.")
 @click.option("--no-swing-damping", is_flag=True,
               help="Disable the controller's swing damping (the tip then stays on the path while the grapple swings).")
-@click.option("--per-joint-stiffness", is_flag=True,
-              help="Each joint its own oil-spring frequency from the crane file, with the controller for it "
-                   "(ExecuteOptions.with_per_joint_stiffness); default: every joint 2.5 Hz (docs/runtime.md).")
+@click.option("--per-joint-stiffness/--uniform-stiffness", default=True, show_default=True,
+              help="Each joint its own oil-spring frequency from the crane file, with the controller for it; or "
+                   "every joint 2.5 Hz, the plant the controller was first tuned on "
+                   "(ExecuteOptions.with_uniform_stiffness; docs/runtime.md).")
 @click.option("--stick-mrf", metavar="NAME", help="M4-M6: the stick moves this point (tip, grapple, log_centre, "
               "log_end or a scene frame; 001 eq. 1); with a stick script or the passive operator.")
 @click.option("--stick-crf", metavar="NAME", help="M4-M6: the stick's axes along this frame's x, y, z (base, slew or a "
@@ -121,10 +122,11 @@ def execute(
         options = ExecuteOptions(seed=seed, time_limit_s=time_limit, obstacle_guard=not no_guard,
                                  sim=SimParams(noise_frac=noise), controller=controller, stick_mrf=stick_mrf,
                                  stick_crf=stick_crf, vision=vision, accommodation=accommodation)
-        if per_joint_stiffness:
-            options = options.with_per_joint_stiffness()
+        if not per_joint_stiffness:
+            options = options.with_uniform_stiffness()
         entry = int(lib.entry[row]) if row >= 0 else -1
-        warning = contact_loop_check(options)
+        start = current if current is not None else (lib.trajectory(row).q[0] if row >= 0 else None)
+        warning = contact_loop_check(options, lib.crane, start)
         if warning:  # before the run: a gain that makes the contact ring
             click.echo(f"warning: {warning}", err=True)
         step(f"{f'library row {row} selected' if row >= 0 else 'no motion yet'}; running the closed loop "

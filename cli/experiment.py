@@ -33,9 +33,9 @@ def experiment() -> None:
 @click.option("--automation-ends", type=click.Choice(["fixed", "per-log"]), default="fixed", show_default=True,
               help="fixed: go out ends at the fix point between the pick-up areas, go back over the target area "
                    "(000 section 3.3); per-log: at the log's grab point and release point.")
-@click.option("--per-joint-stiffness", is_flag=True,
-              help="Each joint its own oil-spring frequency from the crane file (plant and controller); default: "
-                   "every joint 2.5 Hz, the plant the experiment was tuned on (docs/runtime.md).")
+@click.option("--per-joint-stiffness/--uniform-stiffness", default=True, show_default=True,
+              help="Each joint its own oil-spring frequency from the crane file (plant and controller); or every "
+                   "joint 2.5 Hz, the plant the experiment was first run on (docs/runtime.md).")
 @click.option("--time-limit", default=900.0, show_default=True,
               type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one series (s).")
@@ -94,9 +94,9 @@ def log_loading(
                    "[default: libraries/forwarder-site.yaml].")
 @click.option("--swing-damping/--no-swing-damping", default=True, show_default=True,
               help="The controller's swing damping (on, as in motionlib execute).")
-@click.option("--per-joint-stiffness", is_flag=True,
+@click.option("--per-joint-stiffness/--uniform-stiffness", default=True, show_default=True,
               help="Each joint its own oil-spring frequency from the crane file (plant and controller, with the "
-                   "slew's servo); default: every joint 2.5 Hz (docs/runtime.md).")
+                   "slew's servo); or every joint 2.5 Hz (docs/runtime.md).")
 @click.option("--time-limit", default=600.0, show_default=True,
               type=FiniteFloatRange(min=0.0, min_open=True, max=RUN_TIME_LIMIT_S),
               help="Longest simulated time of one run (s).")

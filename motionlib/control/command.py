@@ -27,12 +27,14 @@ from .resolved_rate import resolve_rate_fast
 
 COMMAND_STATE: tuple[str, ...] = (
     "cmd1", "cmd2", "cmd3", "cmd4", "automation_active", "authority", "c_a", "c_o", "sigma_min", "flags",
-    "s_p", "deviation_m", "speed_o", "t", "p_x", "p_y", "p_z",
+    "s_p", "deviation_m", "speed_o", "t", "p_x", "p_y", "p_z", "swing_slew",
 )
 """Entries of the controller's state array: the last command (the previous one at the next step), 1.0
-while an automated motion is in control, then the status fields of the last step."""
-S_CMD, S_AUTO, S_AUTHORITY, S_C_A, S_C_O, S_SIGMA, S_FLAGS, S_S_P, S_DEV, S_SPEED_O, S_T, S_P = (
-    0, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14)
+while an automated motion is in control, then the status fields of the last step; ``swing_slew``: the swing
+damping's share of the slew's target (rad/s, the slew entry of its tip velocity resolved; 0 without it), which
+the slew's servo passes on without its model's lag (:mod:`motionlib.control.joint_servo`)."""
+S_CMD, S_AUTO, S_AUTHORITY, S_C_A, S_C_O, S_SIGMA, S_FLAGS, S_S_P, S_DEV, S_SPEED_O, S_T, S_P, S_SWING_SLEW = (
+    0, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17)
 
 #: Vector constants (4 entries each, joint order) of :func:`command_consts`, in their order.
 CONST_VECTORS: tuple[str, ...] = (
@@ -275,6 +277,7 @@ def command_law(c, state, mixer_consts, mixer_state, jac, q, qd, swing_x: float,
     """
     event = EV_NONE
     c_a = 0.0
+    state[S_SWING_SLEW] = 0.0
     qo_weights = has_qo and auto and c[K_TRADED] == 0.0  # shared control: the operator's joints weigh more
     if auto and c[K_TRADED] != 0.0:
         state[S_AUTHORITY] = A_TRADED
@@ -307,7 +310,8 @@ def command_law(c, state, mixer_consts, mixer_state, jac, q, qd, swing_x: float,
             sway = swing_damping_rate(c, swing_x, swing_y)
             if sway[0] == 0.0 and sway[1] == 0.0:
                 target = qm
-            else:  # ... plus the swing damping's tip velocity, resolved (000 eq. 2)
+            else:  # ... plus the swing damping's tip velocity, resolved (000 eq. 2); its slew share stays in the
+                # servo's model here (swing_slew 0: the fast path slowed the manual expert, joint_servo docstring)
                 qs, _, _ = resolve_rate_fast(jac, sway, limit_weights(c, q, qo, False), (0.0, 0.0, 0.0, 0.0),
                                              c[K_SIGMA_THR], c[K_DAMP_MAX])
                 target = (qm[0] + qs[0], qm[1] + qs[1], qm[2] + qs[2], qm[3] + qs[3])
@@ -329,6 +333,9 @@ def command_law(c, state, mixer_consts, mixer_state, jac, q, qd, swing_x: float,
         z = centering_rate(c, q)
     target, sigma_min, lam = resolve_rate_fast(jac, ps, w, z, c[K_SIGMA_THR], c[K_DAMP_MAX])
     state[S_SIGMA] = sigma_min
+    if sx != 0.0 or sy != 0.0:  # the swing damping's share (the resolved rate is linear in ps, same damping)
+        qs, _, _ = resolve_rate_fast(jac, (sx, sy, sz), w, (0.0, 0.0, 0.0, 0.0), c[K_SIGMA_THR], c[K_DAMP_MAX])
+        state[S_SWING_SLEW] = qs[0]
     if lam > 0.0:
         flags |= F_DAMPED
     finish_command(c, state, target, q, qd, flags)

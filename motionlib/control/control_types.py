@@ -24,11 +24,14 @@ from .force_feedback import ForceFeedbackParams
 _ZERO4: Vec4 = (0.0, 0.0, 0.0, 0.0)
 _ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
-#: ``ControllerParams.swing_damping`` for the plant with each joint's own oil-spring frequency
-#: (``SimParams(natural_freq_hz=None)``): the default 0.45, acting through the slow slew (lab 1.13 Hz, forwarder
-#: 0.80 Hz), pumps a limit cycle with the grapple. Measured (docs/runtime.md, "Per-joint natural frequencies"):
-#: on 8 log-loading rows 0.2 settles all at a median 1.39x the plan against 5 of 8 at 0.45; on the forwarder
-#: loading cycle the model expert places 4 of 4 logs at 0.2 and none at 0.45.
+#: ``ControllerParams.swing_damping`` on the uniform plant (every joint 2.5 Hz, ``SimParams(natural_freq_hz=2.5)``,
+#: :meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`): chosen there on six log-loading library rows
+#: (0.3 and 0.6 settle later; docs/runtime.md). The default 0.2 is the per-joint plant's: 0.45, acting through the slow
+#: slew (lab 1.13 Hz, forwarder 0.80 Hz), pumps a limit cycle with the grapple. Measured (docs/runtime.md, "Per-joint
+#: natural frequencies"): on 8 log-loading rows 0.2 settles all at a median 1.39x the plan against 5 of 8 at 0.45; on
+#: the forwarder loading cycle the model expert places 4 of 4 logs at 0.2 and none at 0.45.
+UNIFORM_SWING_DAMPING = 0.45
+#: ``ControllerParams.swing_damping``'s default, the per-joint plant's (above).
 PER_JOINT_SWING_DAMPING = 0.2
 
 
@@ -244,7 +247,9 @@ class ControllerParams:
         changes by at most ``qdd_max * dt_s`` per step (the crane model's planning acceleration,
         scaled uniformly over the joints), so an abrupt stick or abort becomes a ramp. Off, the
         command may step and only the machine limits it (valve lag, flow saturation, pump,
-        relief valves: :mod:`motionlib.sim.plant`); 000's experiment ran without such a ramp.
+        relief valves: :mod:`motionlib.sim.plant`); 000's experiment ran without such a ramp. An accommodation
+        source's change passes it, bounded: the command then changes by at most ``2 qdd_max dt`` per step
+        (:mod:`motionlib.control.accommodation`, "The command ramp").
         Stale input and a bad state then command 0 at once.
     swing_damping : float
         Damping ratio ``zeta_s`` that the swing damping adds to the grapple pendulum (0: off).
@@ -254,8 +259,9 @@ class ControllerParams:
         (``L`` the crane's ``grapple_length``): a tip that follows its command makes the small
         swing obey ``r'' + (c + k_s) r' + (g / L) r = 0``, i.e. the linear swing-angle feedback
         of crane anti-sway control (Abdel-Rahman, Nayfeh & Masoud 2003, *Dynamics and control
-        of cranes: a review*, J. Vibration and Control 9(7)). 0.45: assumption, chosen on six
-        log-loading library rows (0.3 and 0.6 settle later; docs/runtime.md).
+        of cranes: a review*, J. Vibration and Control 9(7)). Default :data:`PER_JOINT_SWING_DAMPING` (0.2),
+        the per-joint plant's; :data:`UNIFORM_SWING_DAMPING` (0.45) on the uniform 2.5 Hz plant. Assumptions,
+        chosen by measurement (docs/runtime.md).
     swing_damping_max_m_s : float
         Largest tip speed (m/s) the swing damping adds (its vector is scaled down beyond). Assumption.
     swing_damping_deadband_rad : float
@@ -269,37 +275,35 @@ class ControllerParams:
     joint_natural_freq_hz, joint_damping_ratio : float
         The identified second-order model of the joints' velocity response (000 section 2.1)
         that the automation's position gain is derived from (:meth:`SharedController.position_gain_max`);
-        here the simulated plant's values (:class:`~motionlib.sim.plant.SimParams`): 2.5 Hz for every
-        joint, the default plant's. ``joint_natural_freq_hz=None``: each joint its own frequency from the
-        crane file's oil springs (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`,
-        the plant's ``SimParams(natural_freq_hz=None)``; 2.5 Hz on a file without them). Not the default
-        yet: with both per joint, 12 closed-loop tests do not settle (docs/runtime.md, "Per-joint natural
-        frequencies").
+        here the simulated plant's values (:class:`~motionlib.sim.plant.SimParams`). None (default): each
+        joint its own frequency from the crane file's oil springs
+        (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`, the default plant's; 2.5 Hz
+        on a file without them). A number: every joint that frequency (2.5 on the uniform plant,
+        :meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`).
     joint_feedforward : bool
-        Feed each joint's identified model forward (off by default): the path tracker adds, per joint, what
+        Feed each joint's identified model forward (on by default): the path tracker adds, per joint, what
         inverting the valve lag and the oil spring (``joint_natural_freq_hz``, ``joint_damping_ratio`` or, for the
         slew with ``slew_servo``, its servo model's, ``valve_lag_s``) with the planned swing's pull as the load adds to
-        the plan's speed
-        (:mod:`motionlib.control.joint_feedforward`), so that a slow joint does not store the plan's braking in
-        its oil spring and ring after the end. On with the per-joint plant
-        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`; docs/runtime.md,
-        "Per-joint natural frequencies"). Off on the default plant: its 2.5 Hz joints lag less than the tracker's
-        preview, which was tuned there, and with the feedforward its executed settle ratio reaches 1.46x on one of
-        20 rows (docs/runtime.md).
+        the plan's speed (:mod:`motionlib.control.joint_feedforward`), so that a slow joint does not store the
+        plan's braking in its oil spring and ring after the end (docs/runtime.md, "Per-joint natural
+        frequencies"). It runs on the plan's clock, so a tracker on the path's speed law
+        (``TrackerParams(timing="path")``) tracks without it. Off on the uniform plant: its 2.5 Hz joints lag less
+        than the tracker's preview, which was tuned there, and with the feedforward its executed settle ratio
+        reaches 1.46x on one of 20 rows (docs/runtime.md).
     slew_servo : bool
-        The slew's model-following servo (off by default): the slew's valve gets the command plus the errors of
-        its rate and drive pressure from a well-damped model of the slew driven by the command
-        (:mod:`motionlib.control.joint_servo`; needs ``CraneState.drive``), so that the slew and the grapple
-        swinging across the boom do not ring after a motion; the joints' feedforward then inverts that model for
-        the slew. On with the per-joint plant (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`;
-        docs/runtime.md, "The slew's model-following servo").
+        The slew's model-following servo (on by default; off on the uniform plant): the slew's valve gets the
+        command plus the errors of its rate and drive pressure from a well-damped model of the slew driven by
+        the command (:mod:`motionlib.control.joint_servo`; needs ``CraneState.drive``, passes the command
+        through without it), so that the slew and the grapple swinging across the boom do not ring after a
+        motion; the joints' feedforward then inverts that model for the slew (docs/runtime.md, "The slew's
+        model-following servo").
     valve_lag_s : float
         The valves' spool time constant (s) of the joint model: the plant's ``SimParams.tau_s``.
     valve_deadband_frac : float
         The valves' dead band as a fraction of each joint's speed limit (the smaller of its two directions), which
-        every joint command is raised past (:func:`~motionlib.control.command.valve_deadband_inverse`); the plant's
-        ``SimParams.deadband_frac`` (0.005), a machine's identified one. 0 (default): none, as the experiment
-        was run; :meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness` sets the plant's.
+        every joint command is raised past (:func:`~motionlib.control.command.valve_deadband_inverse`); default the
+        plant's ``SimParams.deadband_frac`` (0.005), a machine's identified one: the slow slew's position gain
+        stalls the tip past the arrival tolerance without it. 0: none, as the uniform plant's experiment was run.
     position_gain_margin : float
         Gain margin of the automation's position loops (the tracker's final convergence
         ``end_gain_per_s`` and its pull back onto the path ``lateral_gain_per_s`` are capped at the gain
@@ -328,15 +332,15 @@ class ControllerParams:
     brake_decel_frac: float = param(0.5, gt=0.0, le=1.0)
     lag_s: float = param(0.15, ge=0.0)
     command_ramp: bool = True
-    swing_damping: float = param(0.45, ge=0.0, le=2.0)
+    swing_damping: float = param(PER_JOINT_SWING_DAMPING, ge=0.0, le=2.0)
     swing_damping_max_m_s: float = param(1.0, ge=0.0)
     swing_damping_deadband_rad: float = param(0.02, ge=0.0)
-    joint_natural_freq_hz: float | None = param(2.5, gt=0.0, le=100.0, optional=True)
+    joint_natural_freq_hz: float | None = param(None, gt=0.0, le=100.0, optional=True)
     joint_damping_ratio: float = param(0.35, gt=0.0, le=5.0)
-    joint_feedforward: bool = False
-    slew_servo: bool = False
+    joint_feedforward: bool = True
+    slew_servo: bool = True
     valve_lag_s: float = param(0.04, ge=0.0, le=1.0)
-    valve_deadband_frac: float = param(0.0, ge=0.0, le=0.1)
+    valve_deadband_frac: float = param(0.005, ge=0.0, le=0.1)
     position_gain_margin: float = param(3.0, ge=0.0)
     feedback: ForceFeedbackParams | None = None
 

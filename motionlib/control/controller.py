@@ -45,7 +45,9 @@ states and joystick samples. One step:
    ``a_b = brake_decel_frac * qdd_max``); with the command ramp (``ControllerParams.command_ramp``,
    a safety option, on by default) the change from the previous command is scaled
    uniformly so that no joint exceeds ``qdd_max``, and a joint over its braking curve then
-   brakes at up to ``qdd_max`` on its own. The command is always finite.
+   brakes at up to ``qdd_max`` on its own. The command is always finite. An accommodation source's change
+   passes the ramp, bounded (at most ``qdd_max dt`` more per joint and step,
+   :meth:`SharedController._accommodation_pass`, :mod:`motionlib.control.accommodation`, "The command ramp").
    **The slew's servo** (``ControllerParams.slew_servo``, off by default): the slew's valve gets that
    command plus its rate's and drive's errors from a well-damped model of the slew
    (:mod:`motionlib.control.joint_servo`, with ``CraneState.drive``): the step returns the valves' command
@@ -83,7 +85,9 @@ from .command import (
     EV_ABORT,
     EV_ARRIVAL,
     EV_HANDOVER,
+    K_DAMP_MAX,
     K_DV_CAP,
+    K_SIGMA_THR,
     S_AUTHORITY,
     S_AUTO,
     S_C_A,
@@ -95,10 +99,12 @@ from .command import (
     S_S_P,
     S_SIGMA,
     S_SPEED_O,
+    S_SWING_SLEW,
     S_T,
     command_consts,
     command_law,
     finish_command,
+    limit_weights,
     motion_event,
 )
 from .control_types import (
@@ -116,6 +122,7 @@ from .force_feedback import ForceFeedback
 from .joint_feedforward import joint_feedforward
 from .joint_servo import MODEL_DAMPING, VALVE_COMMAND, servo_array, servo_command
 from .mixer import Mixer, MixerParams, ObstacleGuard
+from .resolved_rate import resolve_rate_fast
 from .rotator import RotatorChannel, RotatorParams
 from .sources import CartesianJoystick, JointJoystick, PathTrackerSource, PositionSource, RateSource, StepContext
 from .tracker import PathTracker, TrackerParams
@@ -216,8 +223,14 @@ class SharedController:
         #: The command law's state (:data:`motionlib.control.command.COMMAND_STATE`), behind :attr:`status`.
         self.state = np.zeros(len(COMMAND_STATE))
         #: The slew's servo (:data:`motionlib.control.joint_servo.SERVO`; passes the command through when off).
+        m = crane.model
+        disp: tuple[float, ...] | None = m.displacement
+        if disp is not None and crane.rotator is not None:  # the rotator's oil comes from the same pump
+            disp = (*disp, m.rotator_displacement) if m.rotator_displacement is not None else None
         self.servo = servo_array(prm.slew_servo, self.joint_omega_rad_s()[0], prm.valve_lag_s, prm.dt_s,
-                                 (float(crane.qd_min[0]), float(crane.qd_max[0])))
+                                 (float(crane.qd_min[0]), float(crane.qd_max[0])), m.pump_flow, disp)
+        #: The servo's input: the joint commands and, on a crane with a rotator, the rotator's last command.
+        self._servo_u = np.zeros(5 if crane.rotator is not None else 4)
         st0 = ControllerStatus()
         self.state[[S_C_O, S_S_P, S_DEV, S_SIGMA]] = st0.c_o, st0.s_p, st0.deviation_m, st0.sigma_min
         if joystick is None:
@@ -245,6 +258,8 @@ class SharedController:
         self._stale = False
         self._nonfinite = False
         self._swing = (math.nan, math.nan)  # the grapple's measured horizontal offset (m)
+        #: The accommodation's joint rates that have passed the command ramp (:meth:`_accommodation_pass`).
+        self._acc_passed: Vec4 = _ZERO4
         #: The hand controller's force feedback (``ControllerParams.feedback``), else None.
         self.feedback = ForceFeedback(prm.feedback) if prm.feedback is not None else None
         #: The grapple rotator's axis of the summing junction (cranes with a rotator), else None.
@@ -284,7 +299,9 @@ class SharedController:
         """A new automation command: track ``trajectory``'s path from the next step.
 
         Resets the mixer (no handover, ``t_o = 0``). In manual modes (M1, M4) the motion is
-        accepted but has no effect.
+        accepted but has no effect. The joints' feedforward (``ControllerParams.joint_feedforward``) runs on the
+        plan's clock: a tracker on the path's speed law (``TrackerParams(timing="path")``) has none, and tracks
+        without it.
 
         Returns
         -------
@@ -293,7 +310,7 @@ class SharedController:
         """
         prm, k_max = self.tracker_params, self.position_gain_max(trajectory.q)
         feedforward = None
-        if self.params.joint_feedforward:
+        if self.params.joint_feedforward and prm.timing == "time":  # (it runs on the plan's clock)
             feedforward = joint_feedforward(trajectory, self.crane, self.joint_omega_rad_s(),
                                             self.joint_model_damping(), self.params.valve_lag_s,
                                             prm.time_preview_s, self.params.dt_s)
@@ -488,7 +505,7 @@ class SharedController:
                 self.events.append(Event(t, "bad_state"))
             self._ramp_to_zero()
             cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_FLAGS] = int(_STOPPED), 0.0, 1.0, flags
-            servo_command(self.servo, cs[S_CMD], math.nan, math.nan)
+            servo_command(self.servo, self._servo_input(), math.nan, math.nan, 0.0)
             return self._publish()
 
         self._swing = _swing_offset(getattr(state, "swing", None))
@@ -504,16 +521,26 @@ class SharedController:
         if stale:  # target 0, reached within the limits; the slew's servo passes it through (a stop is the plant's)
             cs[S_AUTHORITY], cs[S_C_A], cs[S_C_O], cs[S_SPEED_O] = int(_STOPPED), 0.0, 1.0, 0.0
             finish_command(self.consts, cs, _ZERO4, q, qd_meas, flags)
-            servo_command(self.servo, cs[S_CMD], math.nan, math.nan)
+            servo_command(self.servo, self._servo_input(), math.nan, math.nan, 0.0)
         else:
             self._command(ctx, abort, flags)
-            servo_command(self.servo, cs[S_CMD], qd_meas[0], _floats4(getattr(state, "drive", None))[0])
+            servo_command(self.servo, self._servo_input(), qd_meas[0], _floats4(getattr(state, "drive", None))[0],
+                          cs[S_SWING_SLEW])
         return self._publish()
+
+    def _servo_input(self) -> np.ndarray:
+        """The slew servo's input (:func:`~motionlib.control.joint_servo.servo_command`): this step's joint
+        commands, then the rotator's command of the last step (this step's comes after, :meth:`rotator_step`)."""
+        u = self._servo_u
+        u[:4] = self.state[S_CMD:S_CMD + 4]
+        if self.rotator is not None:
+            u[4] = self.rotator.cmd
+        return u
 
     def _publish(self) -> np.ndarray:
         """Copy the state array and the slew's servo's output into :attr:`status`; the valves' command (4,)."""
         (c1, c2, c3, c4, _, authority, c_a, c_o, sigma, flags, s_p, dev, speed_o, t, px, py,
-         pz) = self.state.tolist()
+         pz, _) = self.state.tolist()
         st = self.status
         st.t, st.authority, st.c_a, st.c_o = t, _AUTHORITIES[int(authority)], c_a, c_o
         st.sigma_min, st.flags = sigma, int(flags)
@@ -574,10 +601,14 @@ class SharedController:
         # operator sources: p_o (Cartesian) and qd_o (joint operation)
         po_x = po_y = po_z = 0.0
         qo: Vec4 | None = None
+        acc: Vec3 | None = None
         for src in self._operator_sources:
             if not src.enabled:
                 continue
             r = src.rate(ctx)
+            if isinstance(src, AccommodationSource):
+                acc = (float(r[0]), float(r[1]), float(r[2])) if acc is None else \
+                    (acc[0] + r[0], acc[1] + r[1], acc[2] + r[2])
             if src.space == "cartesian":
                 po_x += r[0]
                 po_y += r[1]
@@ -639,6 +670,8 @@ class SharedController:
             po_guarded, c_o = self._guard(ctx.q, po)
         else:
             po_guarded, c_o = po, 1.0
+        if self.params.command_ramp and (acc is not None or self._acc_passed != _ZERO4):
+            self._accommodation_pass(jac, ctx.q, acc if acc is not None and not self._joint_operation else _ZERO3)
         event = command_law(
             self.consts, cs, self.mixer.consts, self.mixer.state, jac, ctx.q, ctx.qd,
             self._swing[0] - swing_ref[0], self._swing[1] - swing_ref[1], auto, speed_o,
@@ -671,9 +704,32 @@ class SharedController:
         gx, gy, gz = self.guard.apply(q, po, approach)
         return (float(gx), float(gy), float(gz)), float(self.guard.c_o)
 
+    def _accommodation_pass(self, jac: Any, q: Vec4, rate: Vec3) -> None:
+        """Let the accommodation's change pass the command ramp, bounded: shift the ramp's reference.
+
+        The accommodation is a force loop whose lag sets how far a push overshoots its force
+        (:mod:`motionlib.control.accommodation`, "The command ramp"); the ramp (``command_ramp``) would add the
+        time the command needs to turn at ``qdd_max``. Its tip rate ``v_F`` resolved at nominal joint-limit
+        weights, ``qd_F`` (000 eq. 2, no null-space term), changes the previous command the ramp limits from by
+        ``s = clip(qd_F - qd_F', -qdd_max dt, qdd_max dt)`` per joint, ``qd_F'`` what has passed so far
+        (``qd_F' <- qd_F' + s``): the rest of the command is ramped as before and the whole command changes by
+        at most ``2 qdd_max dt`` per step (the velocity limits and braking curves still bind).
+        """
+        c, cs, passed = self.consts, self.state, self._acc_passed
+        qa = resolve_rate_fast(jac, rate, limit_weights(c, q, _ZERO4, False), _ZERO4, c[K_SIGMA_THR],
+                               c[K_DAMP_MAX])[0]
+        moved = []
+        for i in range(4):
+            cap = float(c[K_DV_CAP + i])
+            s = min(cap, max(-cap, float(qa[i]) - passed[i]))
+            cs[S_CMD + i] += s
+            moved.append(passed[i] + s)
+        self._acc_passed = (moved[0], moved[1], moved[2], moved[3])
+
     def _ramp_to_zero(self) -> None:
         """Decelerate the previous command toward 0 within qdd_max (state unknown)."""
         cs, c = self.state, self.consts
+        self._acc_passed = _ZERO4
         for i in range(4):
             v, dv = float(cs[S_CMD + i]), float(c[K_DV_CAP + i])
             cs[S_CMD + i] = 0.0 if abs(v) <= dv else v - math.copysign(dv, v)

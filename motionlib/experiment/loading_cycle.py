@@ -157,10 +157,11 @@ class LoadingCycleOptions:
         (``FORWARDER_SCENARIO.grapple_still_rad``). Off, the swing decays on its own (the log-loading
         experiment runs without it, as 000 describes no anti-sway).
     per_joint_stiffness : bool
-        Each joint its own oil-spring frequency in the plant and the controller (``RunOptions.per_joint_stiffness``:
-        with the slew's servo, :mod:`motionlib.control.joint_servo`), the plans as the spec has them (its 0.4 s
-        jerk box). Off by default (every joint 2.5 Hz): docs/runtime.md, "The slew's model-following servo", gives
-        the cycle measured both ways and with the jerk box one period of the slew's mode.
+        Each joint its own oil-spring frequency in the plant and the controller (default;
+        ``RunOptions.per_joint_stiffness``, with the slew's servo, :mod:`motionlib.control.joint_servo`), the plans
+        as the spec has them (its 0.4 s jerk box). False: the uniform plant, every joint 2.5 Hz. docs/runtime.md,
+        "The slew's model-following servo", gives the cycle measured both ways and with the jerk box one period of
+        the slew's mode.
     """
 
     spec: Path = DEFAULT_CYCLE_SPEC
@@ -170,7 +171,7 @@ class LoadingCycleOptions:
     time_limit_s: float = 600.0
     scenario: ScenarioOptions = FORWARDER_SCENARIO
     swing_damping: bool = True
-    per_joint_stiffness: bool = False
+    per_joint_stiffness: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "spec", Path(self.spec))
@@ -382,7 +383,7 @@ def loading_cycle(
         "scene": spec.scene.name,
         "crane": spec.crane.name,
         "logs": logs,
-        "joint_stiffness": "per-joint" if opts.per_joint_stiffness else "shared",
+        "joint_stiffness": "per-joint" if opts.per_joint_stiffness else "uniform",
         "jerk_box_s": spec.plan_options().jerk_box_s,
         "planning_s": time.perf_counter() - t0,
         "planned": {

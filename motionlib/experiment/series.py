@@ -296,11 +296,10 @@ class RunOptions:
     seed : int
         Seed of the plant's valve noise (``ExecuteOptions.seed``); 0 in the experiment.
     per_joint_stiffness : bool
-        Each joint its own oil-spring frequency from the crane file, in the plant and in the controller's
-        position gain, with the swing damping for that plant when it is on
-        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_per_joint_stiffness`; docs/runtime.md, "Per-joint
-        natural frequencies"). Off by default: every joint 2.5 Hz, the plant the
-        experiment and the controller were tuned on.
+        Each joint its own oil-spring frequency from the crane file, in the plant and the controller (default).
+        False: the uniform plant, every joint 2.5 Hz, with the controller tuned there
+        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`; docs/runtime.md, "Per-joint
+        natural frequencies"), the plant the experiment was first run on.
     """
 
     time_limit_s: float = 900.0
@@ -309,7 +308,7 @@ class RunOptions:
     swing_damping: bool = False
     scenario: ScenarioOptions = field(default_factory=ScenarioOptions)
     seed: int = 0
-    per_joint_stiffness: bool = False
+    per_joint_stiffness: bool = True
 
 
 class ExperimentContext:
@@ -348,8 +347,8 @@ class ExperimentContext:
                 swing_damping=ControllerParams().swing_damping if self.options.swing_damping else 0.0,
             ),
         )
-        if self.options.per_joint_stiffness:
-            self.execute_options = self.execute_options.with_per_joint_stiffness()
+        if not self.options.per_joint_stiffness:
+            self.execute_options = self.execute_options.with_uniform_stiffness()
 
 
 def scene_without_logs(scene: Scene, crane: Any, file: str) -> Scene:

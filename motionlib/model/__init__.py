@@ -16,6 +16,9 @@ symbolic
 limits
     Joint position, velocity, acceleration and shared-pump flow limits as objects
     (003 eqs. 4.8-4.10), their TOPPRA constraints and the dense sample check.
+pump
+    Flow sharing of the one load-sensing pump between the joints (the rotator's included): the simulated
+    crane's pump and what the slew's servo predicts of it.
 scene
     Obstacle scenes (``obstacles/*.yaml``): obstacles, named starts, points and regions.
 collision

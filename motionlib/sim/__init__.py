@@ -9,9 +9,8 @@ plant
     :class:`~.plant.SimulatedCrane`: hydraulic joints (with the grapple rotator on a crane that
     has one), end stops and the swinging grapple.
 hydraulics
-    The joint actuators: valve lag, oil compliance (second order), relief bound (000 section 2.1).
-pump
-    Flow sharing of the one load-sensing pump between the joints (the rotator's included).
+    The joint actuators: valve lag, the shared pump (:mod:`motionlib.model.pump`), oil compliance (second order),
+    relief bound (000 section 2.1).
 contact
     Contact of the grapple with the ground and the scene's obstacles (spring-damper, Coulomb friction).
 sensors

@@ -22,17 +22,24 @@ from typing import Any
 import numpy as np
 
 from ..checks import check_scalar, check_vector
-from ..control.accommodation import AccommodationOptions, accommodation_source, contact_loop_warning
-from ..control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams, Mode
+from ..control.accommodation import (
+    AccommodationOptions,
+    ContactPlant,
+    accommodation_source,
+    contact_loop_warning,
+)
+from ..control.control_types import PER_JOINT_SWING_DAMPING, UNIFORM_SWING_DAMPING, ControllerParams, Mode
 from ..control.controller import SharedController
 from ..control.frames_source import stick_in_frames
 from ..control.metrics import RunSummary, run_summary
 from ..control.mixer import MixerParams, ObstacleGuard
+from ..control.resolved_rate import resolve_rate_fast
 from ..control.runlog import RunLog, write_runlog
 from ..control.tracker import TrackerParams
 from ..control.vision import VisionSource
 from ..errors import ContactLoopWarning, ExecutionError, InputError
 from ..model.collision import CollisionChecker
+from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ
 from ..model.kinematics import Crane
 from ..model.scene import Scene
 from ..planning.trajectory import Trajectory
@@ -122,19 +129,33 @@ class ExecuteOptions:
     def with_per_joint_stiffness(self) -> ExecuteOptions:
         """These options on the plant with each joint's own oil-spring frequency, with the controller for it.
 
-        The plant's ``SimParams(natural_freq_hz=None)``, the controller's position gain and joint feedforward
-        from the same frequencies (``joint_natural_freq_hz=None``, ``joint_feedforward=True``), the slew's
-        model-following servo on its drive pressure (``slew_servo=True``: the soft slew and the grapple swinging
-        across the boom ring less; docs/runtime.md, "The slew's model-following servo"), its valve dead band
-        compensated (``valve_deadband_frac``: the plant's ``deadband_frac``; the slow slew's position gain stalls
-        the tip past the arrival tolerance without it) and, where the swing damping is on,
-        ``PER_JOINT_SWING_DAMPING`` (docs/runtime.md, "Per-joint natural frequencies").
+        The defaults' plant and controller (what :meth:`with_uniform_stiffness` changes, set back): the plant's
+        ``SimParams(natural_freq_hz=None)``, the controller's position gain and joint feedforward from the same
+        frequencies (``joint_natural_freq_hz=None``, ``joint_feedforward=True``), the slew's model-following servo
+        (``slew_servo=True``), its valve dead band compensated (``valve_deadband_frac``: the plant's
+        ``deadband_frac``) and, where the swing damping is on, ``PER_JOINT_SWING_DAMPING`` (docs/runtime.md,
+        "Per-joint natural frequencies").
         """
         damping = PER_JOINT_SWING_DAMPING if self.controller.swing_damping > 0.0 else 0.0
         return replace(self, sim=replace(self.sim, natural_freq_hz=None),
                        controller=replace(self.controller, joint_natural_freq_hz=None, joint_feedforward=True,
                                           slew_servo=True, swing_damping=damping,
                                           valve_deadband_frac=self.sim.deadband_frac))
+
+    def with_uniform_stiffness(self, natural_freq_hz: float = DEFAULT_NATURAL_FREQ_HZ) -> ExecuteOptions:
+        """These options on the uniform plant: every joint ``natural_freq_hz``, with the controller tuned there.
+
+        The plant until the per-joint one became the default, on which 000's experiment, the controller's
+        tuning and the measurements in docs/runtime.md before "Per-joint natural frequencies" were run:
+        ``SimParams(natural_freq_hz=2.5)``, the controller's position gain from the same frequency, no joint
+        feedforward, no slew servo, no dead-band compensation and, where the swing damping is on,
+        ``UNIFORM_SWING_DAMPING``.
+        """
+        damping = UNIFORM_SWING_DAMPING if self.controller.swing_damping > 0.0 else 0.0
+        return replace(self, sim=replace(self.sim, natural_freq_hz=natural_freq_hz),
+                       controller=replace(self.controller, joint_natural_freq_hz=natural_freq_hz,
+                                          joint_feedforward=False, slew_servo=False, swing_damping=damping,
+                                          valve_deadband_frac=0.0))
 
 
 class RunStatus(enum.Enum):
@@ -249,18 +270,49 @@ def prepare_run(
     return controller, sim
 
 
-def contact_loop_check(options: ExecuteOptions) -> str:
+def contact_plant(options: ExecuteOptions, crane: Crane, q: Any) -> ContactPlant | None:
+    """The simulated crane of ``options`` at the joint positions ``q`` (4,) in contact with the ground, linearised.
+
+    :class:`~motionlib.control.accommodation.ContactPlant` from the plant's parameters (``options.sim``: the
+    joints' natural frequencies, each its own from the crane file's oil springs or ``natural_freq_hz``, their
+    damping ratio, the valve's lag, the joint inertias and hanging mass), the controller's period and the contact
+    (``sim.contact`` or the default :class:`~motionlib.sim.contact.ContactParams`); the normal is the vertical
+    and the direction the resolved rate of a vertical tip rate at nominal weights ``qd_lim^2`` (000 eq. 2).
+    None for the first-order plant (no oil spring, no reaction on the joints) or a crane file without
+    ``dynamics`` (no inertia, no mass).
+    """
+    sp = options.sim
+    model = crane.model
+    inertia = sp.joint_inertia if sp.joint_inertia is not None else model.joint_inertia
+    mass = sp.load_mass_kg if sp.load_mass_kg is not None else model.load_mass
+    if sp.model != "second_order" or inertia is None or not mass:
+        return None
+    q = check_vector(q, 4, "q")
+    omega = sp.joint_omegas_rad_s(model, inertia)
+    jac = np.asarray(crane.jacobian(q), dtype=float)
+    weights = tuple((np.asarray(crane.qd_both, dtype=float)[:4] ** 2).tolist())
+    direction = resolve_rate_fast(tuple(jac.reshape(-1).tolist()), (0.0, 0.0, 1.0), weights, (0.0, 0.0, 0.0, 0.0),
+                                  0.0, 0.0)[0]
+    contact = sp.contact or ContactParams()
+    return ContactPlant(tuple(jac[2].tolist()), tuple(float(d) for d in direction), tuple(float(i) for i in inertia),
+                        omega, sp.damping_ratio, sp.tau_s, options.controller.dt_s,
+                        float(mass), contact.stiffness_n_m, contact.damping_n_s_m)
+
+
+def contact_loop_check(options: ExecuteOptions, crane: Crane | None = None, q: Any = None) -> str:
     """A one-line warning when the accommodation of ``options`` makes the contact loop ring, else ``""``.
 
     :func:`~motionlib.control.accommodation.contact_loop_warning` with the stick's full-deflection
     speed, the control period and the stiffness of the plant's contact (``sim.contact``, or the
-    default :class:`~motionlib.sim.contact.ContactParams` that :func:`execute` turns on).
+    default :class:`~motionlib.sim.contact.ContactParams` that :func:`execute` turns on); with ``crane`` and the
+    joint positions ``q`` (4,) (the run's start) also the crane's contact mode (:func:`contact_plant`).
     """
     if options.accommodation is None:
         return ""
     contact = options.sim.contact or ContactParams()
+    plant = contact_plant(options, crane, q) if crane is not None and q is not None else None
     return contact_loop_warning(options.accommodation, options.mixer.v_operator_max_m_s, contact.stiffness_n_m,
-                                options.controller.dt_s)
+                                options.controller.dt_s, plant)
 
 
 def execute(
@@ -379,7 +431,7 @@ def execute(
     own: list[Sensor] = [camera] if camera is not None else []
     force_sensor: ForceSensor | None = None
     if opts.accommodation is not None:
-        if message := contact_loop_check(opts):
+        if message := contact_loop_check(opts, crane, q0):
             warnings.warn(message, ContactLoopWarning, stacklevel=2)
         accommodation = accommodation_source(opts.accommodation, opts.mixer.v_operator_max_m_s)
         controller.add_source(accommodation)

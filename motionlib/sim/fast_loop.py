@@ -56,6 +56,7 @@ from ..control.command import (
     S_P,
     S_S_P,
     S_SPEED_O,
+    S_SWING_SLEW,
     S_T,
     command_law,
     motion_event,
@@ -528,7 +529,8 @@ def run_segment(ctl, op, plant, config, counters, scratch, rows, events, stage: 
             _event(events, counters, t, EV_HANDOVER, ctl.mixer_state[_MX_T_O])
         # the valves' command: the slew's servo (motionlib.control.joint_servo) on the command law's command
         drive = plant.joints[S, 0] if plant.prm[P_SECOND] != 0.0 else math.nan  # no oil spring: not measured
-        cmd = (servo_command(ctl.servo, cs[S_CMD], qd[0], drive), cs[S_CMD + 1], cs[S_CMD + 2], cs[S_CMD + 3])
+        cmd = (servo_command(ctl.servo, cs[S_CMD:S_CMD + 4], qd[0], drive, cs[S_SWING_SLEW]), cs[S_CMD + 1],
+               cs[S_CMD + 2], cs[S_CMD + 3])
         k = int(counters[N_ROWS])
         row = rows[k]
         row[0] = t

@@ -10,7 +10,7 @@ does with a velocity command ``u`` (per joint ``i``, one substep ``h`` at a time
    direction-dependent flow saturation ``qd_min <= u <= qd_max`` (see
    :class:`~motionlib.sim.plant.SimulatedCrane`);
 2. **pump**: the valves' demands share the pump's flow, ``y = k x`` with
-   ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.sim.pump.flow_share`);
+   ``k = min(1, Q_pump / sum d_i |x_i|)`` (:func:`motionlib.model.pump.flow_share`);
 3. **actuator** (oil compliance, second order): the flow ``y`` drives the joint through the
    oil's compliance, a mass-spring system with natural frequency ``omega_i`` (each joint its
    own, from its oil column and inertia:
@@ -72,7 +72,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..jit import njit
-from .pump import flow_share
+from ..model.pump import flow_share
 
 #: Rows of the joint state array (6, n) of :func:`actuators_substep`.
 Q, V, X, S, Y, A = range(6)

@@ -15,7 +15,7 @@ The controller's joint velocity command ``u`` is held for a control period. Per 
 3. direction-dependent flow saturation: ``qd_min_i <= u <= qd_max_i`` (the valve's largest
    flow in each direction, divided by the joint's displacement);
 4. the joint actuators of :mod:`motionlib.sim.hydraulics`: valve spool lag, the shared
-   pump's flow divided between the joints (:mod:`motionlib.sim.pump`, when
+   pump's flow divided between the joints (:mod:`motionlib.model.pump`, when
    ``pump_sharing`` and the crane file gives ``hydraulics``), the oil compliance's second-order
    response (each joint its own natural frequency from the crane file's oil data, see
    ``SimParams.natural_freq_hz``; ``damping_ratio``) with the grapple's reaction as a load and the
@@ -154,14 +154,14 @@ class SimParams:
     natural_freq_hz : float or None
         Natural frequency of the joints' velocity response (Hz), from the oil compliance
         (:func:`motionlib.model.crane_model.natural_frequency_rad_s`, Merritt 1967, *Hydraulic Control
-        Systems*, ch. 5). A number: every joint that frequency; the default
-        :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz (assumption: the lab boom's 2.6 Hz) is the plant the
-        experiment and the controller's tuning were run on. None: each joint its own,
-        ``omega_i = sqrt(4 beta d_i^2 / (V_i I_i))`` from the crane file's ``hydraulics.bulk_modulus``,
-        ``displacement``, ``oil_volume`` and the joint inertia the plant uses (``joint_inertia`` below,
-        by default the file's nominal, configuration-independent ``dynamics.joint_inertia``); a crane
-        file without ``oil_volume`` then gives every joint 2.5 Hz. The grapple's mass on the rod lowers the loaded
-        frequency further through its reaction (module docstring). 000 section 4.1 puts the
+        Systems*, ch. 5). None (default): each joint its own, ``omega_i = sqrt(4 beta d_i^2 / (V_i I_i))`` from
+        the crane file's ``hydraulics.bulk_modulus``, ``displacement``, ``oil_volume`` and the joint inertia the
+        plant uses (``joint_inertia`` below, by default the file's nominal, configuration-independent
+        ``dynamics.joint_inertia``); a crane file without ``oil_volume`` then gives every joint
+        :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz. A number: every joint that frequency, e.g. 2.5 Hz (assumption:
+        the lab boom's 2.6 Hz), the uniform plant 000's experiment and the controller's tuning were first run on
+        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`). The grapple's mass on the rod
+        lowers the loaded frequency further through its reaction (module docstring). 000 section 4.1 puts the
         arm's undesired oscillations between 10 ms and 0.5 s.
     damping_ratio : float
         Damping ratio ``zeta`` of that response. Assumption: hydraulic drives are lightly
@@ -191,7 +191,7 @@ class SimParams:
     seed : int
         Seed of the noise.
     pump_sharing : bool
-        Share the pump's flow (:mod:`motionlib.sim.pump`) when the crane file gives
+        Share the pump's flow (:mod:`motionlib.model.pump`) when the crane file gives
         ``hydraulics`` (003 section 4.3: the joints share one pump).
     load_mass_kg : float or None
         Mass on the rod at the start (kg), a point mass at the grapple point, whose reaction acts on
@@ -216,7 +216,7 @@ class SimParams:
     model: str = "second_order"
     dt_sub_s: float = param(0.001, gt=0.0)
     tau_s: float = param(0.04, gt=0.0)
-    natural_freq_hz: float | None = param(DEFAULT_NATURAL_FREQ_HZ, gt=0.0, le=MAX_NATURAL_FREQ_HZ, optional=True)
+    natural_freq_hz: float | None = param(None, gt=0.0, le=MAX_NATURAL_FREQ_HZ, optional=True)
     damping_ratio: float = param(0.35, gt=0.0, le=5.0)
     accel_factor: float = param(4.0, gt=0.0)
     deadband_frac: float = param(0.005, ge=0.0)
@@ -249,6 +249,22 @@ class SimParams:
             inertia = check_vector(self.joint_inertia, 4, "joint_inertia")
             if not np.all(inertia > 0.0):
                 raise InputError(f"joint_inertia: expected 4 positive values, got {list(self.joint_inertia)}")
+
+    def joint_omegas_rad_s(self, model: Any, inertia: Sequence[float] | None,
+                           with_rotator: bool = False) -> tuple[float, ...]:
+        """Each joint's natural frequency (rad/s) on this plant: q1-q4, then the rotator's with ``with_rotator``.
+
+        ``natural_freq_hz`` for every joint; None: each joint's own from the crane file ``model``'s oil springs and
+        ``inertia`` (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`), or
+        :data:`DEFAULT_NATURAL_FREQ_HZ` for every joint on a file without them.
+        """
+        n = 5 if with_rotator else 4
+        own = model.natural_frequencies_rad_s(with_rotator=with_rotator,
+                                              inertia=tuple(inertia) if inertia is not None else None)
+        if self.natural_freq_hz is not None or own is None:
+            hz = self.natural_freq_hz if self.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
+            return (2.0 * math.pi * hz,) * n
+        return tuple(float(w) for w in own[:n])
 
 
 _NO_PLANES = np.zeros((0, 4))
@@ -696,12 +712,7 @@ class SimulatedCrane:
         fx, fy, fz = pend[ROD_FORCE].tolist()
         joint_load(jac, fx, fy, fz, inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
-        per_joint = model.natural_frequencies_rad_s(with_rotator=rot is not None,
-                                                    inertia=tuple(inertia) if inertia is not None else None)
-        if prm.natural_freq_hz is not None or per_joint is None:
-            hz = prm.natural_freq_hz if prm.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
-            per_joint = (2.0 * math.pi * hz,) * self._n
-        self.omega_rad_s: tuple[float, ...] = tuple(float(w) for w in per_joint)
+        self.omega_rad_s: tuple[float, ...] = prm.joint_omegas_rad_s(model, inertia, with_rotator=rot is not None)
         # the relief valves: the actuator's force per unit inertia C_i / I_i (hydraulics step 4), or without
         # the crane file's relief_pressure the older net-acceleration bound
         capacity = model.joint_capacities(with_rotator=rot is not None)

@@ -235,18 +235,22 @@ def test_docs_worked_example_runs(library, tmp_path):
         assert json.loads(res.stdout)["status"] in ("settled", "contracted"), line
 
 
-def test_execute_on_the_per_joint_plant_is_the_python_call_with_per_joint_stiffness(library):
-    """``--per-joint-stiffness`` runs the plant with each joint's own oil-spring frequency and the controller for it:
-    the same run as :func:`motionlib.execute` with ``ExecuteOptions.with_per_joint_stiffness()``, not the default's."""
+def test_execute_stiffness_flags_are_the_python_calls_with_those_options(library):
+    """The default (``--per-joint-stiffness``) runs the plant with each joint's own oil-spring frequency and the
+    controller for it: the same run as :func:`motionlib.execute` with the default ``ExecuteOptions()``;
+    ``--uniform-stiffness`` the same run as with ``ExecuteOptions().with_uniform_stiffness()`` (every joint 2.5 Hz)."""
     from motionlib import ExecuteOptions, execute
 
     lib = Library.open(library)
-    report = _json("execute", library, "--target", "3.5,5.7,3.0", "--per-joint-stiffness")
+    uniform = _json("execute", library, "--target", "3.5,5.7,3.0", "--uniform-stiffness")
     default = _json("execute", library, "--target", "3.5,5.7,3.0")
-    row = report["library_row"]
-    assert row == default["library_row"]
-    run = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive",
-                  options=ExecuteOptions().with_per_joint_stiffness())
-    assert report["cycle_time_s"] == run.summary.cycle_time_s and report["settled"] == run.settled
-    assert report["total_jerk"] == run.summary.total_jerk
-    assert report["cycle_time_s"] != default["cycle_time_s"]
+    explicit = _json("execute", library, "--target", "3.5,5.7,3.0", "--per-joint-stiffness")
+    wall = "real_time_factor"  # the run's wall-clock speed, not its result
+    assert {k: v for k, v in explicit.items() if k != wall} == {k: v for k, v in default.items() if k != wall}
+    row = default["library_row"]
+    assert row == uniform["library_row"]
+    for report, options in ((default, ExecuteOptions()), (uniform, ExecuteOptions().with_uniform_stiffness())):
+        run = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive", options=options)
+        assert report["cycle_time_s"] == run.summary.cycle_time_s and report["settled"] == run.settled
+        assert report["total_jerk"] == run.summary.total_jerk
+    assert uniform["cycle_time_s"] != default["cycle_time_s"]

@@ -228,13 +228,14 @@ def test_scenario_from_the_lab_scene():
     assert sc.out_target(a1) == pytest.approx(tuple(Scene.load(SCENE).point("pickup-between")))
 
 
-def test_per_joint_stiffness_runs_each_joint_at_its_own_frequency(lab):
-    """RunOptions(per_joint_stiffness=True): the plant rings each joint at the crane file's frequency
-    (sqrt(4 beta d^2 / (V I)) from the YAML numbers), the controller's gain uses them, and the swing damping is the
-    per-joint plant's; the default context keeps 2.5 Hz for every joint."""
+def test_experiment_runs_each_joint_at_its_own_frequency_unless_uniform(lab):
+    """RunOptions() (default, per_joint_stiffness=True): the plant rings each joint at the crane file's frequency
+    (sqrt(4 beta d^2 / (V I)) from the YAML numbers), the controller's gain uses them, with the joints' feedforward,
+    the slew's servo and the per-joint plant's swing damping; RunOptions(per_joint_stiffness=False) gives the
+    uniform plant, 2.5 Hz for every joint, with the controller tuned there (ExecuteOptions.with_uniform_stiffness)."""
     import yaml
 
-    from motionlib.control.control_types import PER_JOINT_SWING_DAMPING, ControllerParams
+    from motionlib.control.control_types import PER_JOINT_SWING_DAMPING, UNIFORM_SWING_DAMPING
     from motionlib.experiment.series import ExperimentContext, RunOptions
     from motionlib.sim.plant import SimulatedCrane
 
@@ -244,16 +245,24 @@ def test_per_joint_stiffness_runs_each_joint_at_its_own_frequency(lab):
              for j in ("slew", "boom", "jib", "telescope")]
     scene = Scene.load(SCENE)
     q = lab.ik([3.0, 0.0, 1.5], 0.3)
-    per_joint = ExperimentContext.for_scene(lab, scene, None, RunOptions(per_joint_stiffness=True, swing_damping=True))
-    opts = per_joint.execute_options
-    np.testing.assert_allclose(SimulatedCrane(lab, q, opts.sim).omega_rad_s, omega, rtol=1e-12)
-    assert opts.controller.joint_natural_freq_hz is None and opts.controller.swing_damping == PER_JOINT_SWING_DAMPING
-    default = ExperimentContext.for_scene(lab, scene, None, RunOptions(swing_damping=True)).execute_options
-    assert SimulatedCrane(lab, q, default.sim).omega_rad_s == (2 * math.pi * 2.5,) * 4
-    assert default.controller.swing_damping == ControllerParams().swing_damping != PER_JOINT_SWING_DAMPING
+    per_joint = ExperimentContext.for_scene(lab, scene, None, RunOptions(swing_damping=True)).execute_options
+    np.testing.assert_allclose(SimulatedCrane(lab, q, per_joint.sim).omega_rad_s, omega, rtol=1e-12)
+    ctl = per_joint.controller
+    assert ctl.joint_natural_freq_hz is None and ctl.swing_damping == PER_JOINT_SWING_DAMPING
+    assert ctl.joint_feedforward and ctl.slew_servo and ctl.valve_deadband_frac == per_joint.sim.deadband_frac > 0
+    uniform = ExperimentContext.for_scene(lab, scene, None,
+                                          RunOptions(per_joint_stiffness=False, swing_damping=True)).execute_options
+    assert SimulatedCrane(lab, q, uniform.sim).omega_rad_s == (2 * math.pi * 2.5,) * 4
+    ctl = uniform.controller
+    assert ctl.joint_natural_freq_hz == 2.5 and ctl.swing_damping == UNIFORM_SWING_DAMPING != PER_JOINT_SWING_DAMPING
+    assert not ctl.joint_feedforward and not ctl.slew_servo and ctl.valve_deadband_frac == 0.0
+    # the swing damping off stays off on either plant
+    for flag in (True, False):
+        off = ExperimentContext.for_scene(lab, scene, None, RunOptions(per_joint_stiffness=flag)).execute_options
+        assert off.controller.swing_damping == 0.0
     # the slow slew caps the automation's position gain below the single 2.5 Hz model's
-    assert (SharedController(lab, "M6", opts.controller).position_gain_max(q[None, :])
-            < SharedController(lab, "M6", default.controller).position_gain_max(q[None, :]))
+    assert (SharedController(lab, "M6", per_joint.controller).position_gain_max(q[None, :])
+            < SharedController(lab, "M6", uniform.controller).position_gain_max(q[None, :]))
 
 
 def test_panel_interpolates_between_the_presets():

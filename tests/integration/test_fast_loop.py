@@ -91,17 +91,22 @@ def test_compiled_loop_gives_the_python_loops_run(setting, which, mode, operator
     _assert_same_run(python, compiled)
     res = compiled[0]
     assert res.steps > 1000 and len(res.log) == res.steps
+    # the default plant: each joint its own natural frequency from the crane file (per-joint w2, zw2 arrays), with
+    # the joints' feedforward in the tracker
+    assert len(set(compiled[2].omega_rad_s)) == 4  # four different frequencies
+    assert compiled[1].tracker.feedforward.shape[0] > 100 and np.abs(compiled[1].tracker.feedforward).max() > 0.0
 
 
-def test_compiled_loop_with_per_joint_stiffness_gives_the_python_loops_run(setting):
-    """The plant with each joint's own natural frequency from the crane file (per-joint w2, zw2 arrays), with the
-    controller for it: the joints' feedforward in the tracker."""
-    options = ExecuteOptions().with_per_joint_stiffness()
+def test_compiled_loop_on_the_uniform_plant_gives_the_python_loops_run(setting):
+    """The uniform plant (``ExecuteOptions.with_uniform_stiffness()``: every joint 2.5 Hz, one w2 for all), with the
+    controller tuned there: no joints' feedforward in the tracker, no slew servo. (The runs above are on the default
+    plant, each joint its own frequency, with the feedforward.)"""
+    options = ExecuteOptions().with_uniform_stiffness()
     python = _run(setting, "back", "M6", "novice", compiled=False, options=options)
     compiled = _run(setting, "back", "M6", "novice", compiled=True, options=options)
     _assert_same_run(python, compiled)
-    assert len(set(compiled[2].omega_rad_s)) == 4  # four different frequencies
-    assert compiled[1].tracker.feedforward.shape[0] > 100 and np.abs(compiled[1].tracker.feedforward).max() > 0.0
+    assert compiled[2].omega_rad_s == (2 * math.pi * 2.5,) * 4  # one frequency
+    assert compiled[1].tracker.feedforward.shape[0] == 0 and not compiled[1].params.slew_servo
     assert compiled[0].steps > 1000
 
 

@@ -28,6 +28,9 @@ ROOT = Path(__file__).resolve().parents[2]
 FEEDBACK = ForceFeedbackParams()
 BOUND_N = 3000.0
 V_STICK = MixerParams().v_operator_max_m_s
+DT = ControllerParams().dt_s
+#: Window (s) over which a push's rest force is averaged (test_pushing_into_the_ground_feeds_back_the_gain_times_...).
+REST_WINDOW_S = 1.0
 
 
 class ContactRecorder:
@@ -91,6 +94,11 @@ def test_pushing_into_the_ground_feeds_back_the_gain_times_the_sensed_force(lab,
     Tolerance of the steady force: the closed form (:func:`_steady_force`) leaves out the grapple's
     friction and the rod's tilt; the same run without feedback measures what that leaves against its
     own closed form (``0.8 x bound``), and the run with feedback must agree as well (twice that residual).
+    At rest the controller's valve dead-band compensation (``ControllerParams.valve_deadband_frac``) keeps the
+    stick, the accommodation and the valves in a small limit cycle about the balance (+-7 N, 0.4 %, a period of
+    about 0.3 s; 0.4 N peak to peak without the compensation), and on the per-joint plant the landing's rebound
+    (the grapple leaves the floor for 0.34 s) leaves that loop still ringing down in the last second (74 N peak to
+    peak): the rest value is the mean over the last :data:`REST_WINDOW_S`, about three periods, for both runs.
     """
     run, f_env = _push(lab, tmp_path, FEEDBACK.gain)
     arrays = run.arrays
@@ -99,27 +107,34 @@ def test_pushing_into_the_ground_feeds_back_the_gain_times_the_sensed_force(lab,
     sensed = np.linalg.norm(f_env, axis=1)
     first = int(np.argmax(sensed > 0.0))
     assert first > 0 and not fb[:first].any()  # free space: no feedback
-    # the cylindrical mapping's axes are an orthonormal basis (right_x unused): |grip| = K_FR |f_env| (unbounded)
-    assert FEEDBACK.gain * sensed.max() < FEEDBACK.bound_n
-    np.testing.assert_allclose(np.linalg.norm(fb, axis=1), FEEDBACK.gain * sensed, rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(fb[:, 3], FEEDBACK.gain * f_env[:, 2], rtol=1e-12, atol=1e-12)
+    # the cylindrical mapping's axes are an orthonormal basis (right_x unused): the right stick's pair is
+    # (0, K_FR f_z), the left one's (horizontal) has the norm K_FR |f_h|, each pair's norm bounded by bound_n
+    # (001 eq. 6). The landing at the stick's speed (from 0.1 m up) peaks above bound_n / K_FR = 4 kN on the
+    # per-joint plant (5.8 kN; 3.35 kN on the uniform 2.5 Hz one): the bound acts there.
+    k, bound = FEEDBACK.gain, FEEDBACK.bound_n
+    np.testing.assert_array_equal(fb[:, 2], 0.0)
+    np.testing.assert_allclose(fb[:, 3], np.clip(k * f_env[:, 2], -bound, bound), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.hypot(fb[:, 0], fb[:, 1]), np.minimum(k * np.hypot(f_env[:, 0], f_env[:, 1]), bound),
+                               rtol=1e-12, atol=1e-12)
     assert run.loop.diagnostics["peak_feedback_n"] == pytest.approx(
         float(np.max(np.hypot(fb[:, [0, 2]], fb[:, [1, 3]]))), rel=0.0
     )
 
     k_f = accommodation_source(AccommodationOptions(BOUND_N), V_STICK).gains[2]
     reference, f_ref = _push(lab, tmp_path, 0.0)
-    residual = abs(f_ref[-1, 2] - 0.8 * BOUND_N) / (0.8 * BOUND_N)
+    rest = int(round(REST_WINDOW_S / DT))
+    f_rest, f_ref_rest, grip_rest = f_env[-rest:, 2].mean(), f_ref[-rest:, 2].mean(), fb[-rest:, 3].mean()
+    residual = abs(f_ref_rest - 0.8 * BOUND_N) / (0.8 * BOUND_N)
     theta, f_steady = _steady_force(FEEDBACK.gain, k_f)
     print(
-        f"steady push {f_env[-1, 2]:.1f} N with feedback (closed form {f_steady:.1f} N, stick at "
-        f"{theta / FEEDBACK.deflection_max_rad:.3f}), {f_ref[-1, 2]:.1f} N without (closed form "
-        f"{0.8 * BOUND_N:.0f} N, residual {residual:.1e}); grip {fb[-1, 3]:.3f} N, peak "
-        f"{run.loop.diagnostics['peak_feedback_n']:.2f} N"
+        f"steady push {f_rest:.1f} N with feedback (closed form {f_steady:.1f} N, stick at "
+        f"{theta / FEEDBACK.deflection_max_rad:.3f}; last {REST_WINDOW_S:g} s {np.ptp(f_env[-rest:, 2]):.1f} N peak "
+        f"to peak), {f_ref_rest:.1f} N without (closed form {0.8 * BOUND_N:.0f} N, residual {residual:.1e}); grip "
+        f"{grip_rest:.3f} N, peak {run.loop.diagnostics['peak_feedback_n']:.2f} N"
     )
     assert not reference.arrays["feedback_n"].any()  # gain 0
-    assert f_env[-1, 2] == pytest.approx(f_steady, rel=2.0 * residual)
-    assert fb[-1, 3] == pytest.approx(FEEDBACK.gain * f_steady, rel=2.0 * residual)
+    assert f_rest == pytest.approx(f_steady, rel=2.0 * residual)
+    assert grip_rest == pytest.approx(FEEDBACK.gain * f_steady, rel=2.0 * residual)
     assert f_steady < 0.75 * 0.8 * BOUND_N  # the feedback takes back a quarter of the push
 
     # the run log keeps the feedback

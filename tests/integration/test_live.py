@@ -25,6 +25,7 @@ from motionlib.control.tracker import TrackerParams
 from motionlib.errors import InputError
 from motionlib.library.selection import DEFAULT_L1_M
 from motionlib.library.store import Library
+from motionlib.sim.execute import execute
 from motionlib.viz.live import LiveOptions, LiveServer, LiveStatus, live
 from motionlib.viz.meshes import hang_rotation
 
@@ -100,16 +101,43 @@ def page_status(page) -> re.Match:
     return match
 
 
-def assert_arrived(server: LiveServer, page, lib: Library, start: str) -> None:
-    """The server and the page say the selected motion, from the scene's start ``start``, settled at its end point."""
+class PlantProbe:
+    """A sensor of the loop's hook that keeps the simulated crane, to read where the loop left it."""
+
+    sim = None
+
+    def sense(self, sim) -> None:
+        self.sim = sim
+
+
+def assert_arrived(server: LiveServer, page, lib: Library, start: str, start_q: np.ndarray) -> None:
+    """The server and the page say the selected motion, from the scene's start ``start`` (the crane at ``start_q``),
+    settled at its end point.
+
+    The tracker's arrival (within ``arrive_tol_m`` of the end point and slower than ``arrive_speed_m_s``) is checked
+    where it holds, at the arrival, on the same closed loop run again without the view (``execute`` with the view's
+    options, deterministic): the view's settled configuration is that run's. After the arrival the crane is the
+    passive operator's, and the tip goes on by what the joints' lag and the swing damping still move: on the
+    per-joint plant (its slow slew lags ``tau_v + 2 zeta_m / omega`` = 0.29 s behind its command) 7.5-8 mm from a
+    tip arriving at 19 mm/s with the grapple at 0.022-0.025 rad (about half of it the swing damping's), 1.6 mm on
+    the uniform 2.5 Hz plant; so the settled tip was 8.9 and 10.9 mm from the end points, arrived at 4.2 and 4.9 mm.
+    """
     state = server.state
     assert state.status is LiveStatus.SETTLED, state.message
     row = state.row
     np.testing.assert_allclose(lib.start_q[row], lib.scene.starts[start], atol=1e-6)  # from where the crane was
     assert np.linalg.norm(lib.end_p[row] - state.target) <= DEFAULT_L1_M  # to the commanded point (003 eq. 5.3)
     tip = lib.crane.fk(state.q)  # the kinematics, from the configuration the simulated crane reached
-    assert np.linalg.norm(tip - lib.end_p[row]) <= TrackerParams().arrive_tol_m
     np.testing.assert_allclose(state.tip, tip, atol=1e-9)  # the plant's tip is the kinematics' tip
+    plant = PlantProbe()
+    again = execute(lib.trajectory(row), lib.crane, lib.scene, mode="M6", operator="passive", target=state.target,
+                    start_q=start_q, options=LiveOptions().execute_options, sensors=[plant])
+    assert again.settled
+    np.testing.assert_allclose(plant.sim.q, state.q, rtol=0, atol=1e-9)  # the view ran that loop, to its end
+    arrival = [e.t for e in again.log.events if e.name == "arrival"]
+    assert len(arrival) == 1
+    at = int(np.argmin(np.abs(again.arrays["t"] - arrival[0])))
+    assert np.linalg.norm(again.arrays["tip_p"][at] - lib.end_p[row]) <= TrackerParams().arrive_tol_m
     page.wait_for_function(f"document.body.innerText.includes('update {state.updates}')", timeout=30_000)
     shown = page_status(page)
     assert shown.group(1) == "settled" and shown.group(2) == "M6" and shown.group(3) == "passive"
@@ -163,13 +191,13 @@ def test_point_and_go_in_chromium(live_library, chromium, tmp_path):
         page.wait_for_timeout(1000)
         moving.append(shown_update(page))  # the page follows the running loop
         wait_for(lambda: server.state.status is not LiveStatus.RUNNING)
-        assert_arrived(server, page, lib, start="target-center")
+        assert_arrived(server, page, lib, start="target-center", start_q=lib.start_q[0])
         first = server.state
 
         # A named point's button: back to target-center from where the crane now is.
         page.get_by_role("button", name="target-center").click()
         wait_for(lambda: server.state.motions == 2)
-        assert_arrived(server, page, lib, start="pickup-a")
+        assert_arrived(server, page, lib, start="pickup-a", start_q=first.q)
         np.testing.assert_allclose(server.state.target, lib.scene.points["target-center"])
         assert moving[1] > moving[0], moving
         assert 0.0 < first.paced_factor <= 1.01 and 0.0 < server.state.paced_factor <= 1.01  # never ahead of real time

@@ -91,18 +91,21 @@ def _check_shared_control(text: str, nb: nbformat.NotebookNode, tmp_path: Path) 
         for m in re.finditer(rf"^(M[456])\s+{FLOAT}\s+{FLOAT}\s+", text, flags=re.MULTILINE)
     }
     assert set(table) == {"M4", "M5", "M6"}
-    # the text: M4 (manual) is the slowest; the total jerks are of the same order (measured 586-796 m^2/s^5)
+    # the text: M4 (manual) is the slowest, and the roughest with about twice the total jerk of M5 and M6 (the
+    # default per-joint plant's stiff jib passes the novice's hand noise on; measured 1038, 455 and 471 m^2/s^5 at
+    # seed 0, 8-seed means 1069, 407 and 487), whose totals are close
     assert table["M4"][0] > max(table["M5"][0], table["M6"][0])
-    jerks = [table[mode][1] for mode in ("M4", "M5", "M6")]
-    assert max(jerks) < 2.0 * min(jerks)
+    jerk4, jerk5, jerk6 = (table[mode][1] for mode in ("M4", "M5", "M6"))
+    assert 1.5 * max(jerk5, jerk6) < jerk4 < 3.0 * min(jerk5, jerk6)  # "about twice"
+    assert max(jerk5, jerk6) < 1.5 * min(jerk5, jerk6)  # "close"
     m = _find(
         rf"around the handover: peak acceleration {FLOAT} m/s² in M5, {FLOAT} m/s² in M6; "
         rf"peak swing {FLOAT} deg in M5, {FLOAT} deg in M6",
         text,
     )
     acc5, acc6, swing5, swing6 = map(float, m.groups())
-    # the text: of the same order (measured 3.7 and 4.7 m/s^2): the abort brakes at the joints' limits, the blend
-    # adds the novice's reversing velocity to the automation's falling share (000 eq. 4)
+    # the text: of the same order (measured 2.3 and 2.9 m/s^2 at seed 0): the abort brakes at the joints' limits, the
+    # blend adds the novice's reversing velocity to the automation's falling share (000 eq. 4)
     assert 0.5 < acc6 / acc5 < 2.0
     assert 0.5 < swing6 / swing5 < 2.0  # the text: the swing after the handover is of the same size
     assert "2 seeds; mean" in text

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from motionlib.control.open_loop import OpenLoopOptions, TrajectoryModification, feed_forward, run_open_loop
+from motionlib.control.tracker import TrackerParams
 from motionlib.experiment.open_loop_study import OpenLoopStudyOptions, open_loop_study
 from motionlib.model.kinematics import Crane
 from motionlib.model.scene import Scene
@@ -86,6 +87,7 @@ def test_open_loop_study_halves_the_error(setting):
     assert f"cuts the mean error to {s['after_over_before_mean']:.2g} of" in runtime_md
     assert s["after"]["mean_m"] <= 0.5 * s["before"]["mean_m"], s
     assert s["closed_loop"]["max_m"] < s["after"]["max_m"]  # sensors still do better
+    assert s["closed_loop"]["max_m"] <= TrackerParams().arrive_tol_m  # the closed loop stops once arrived
     # without valve errors or load there is little to learn: the two columns agree closely
     calm = open_loop_study(traj, crane, scene, replace(OpenLoopStudyOptions(n_runs=20, seed=1),
                                                        gain_error=0.0, load_speed_loss=0.0))

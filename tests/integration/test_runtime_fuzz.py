@@ -17,11 +17,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import runtime_fuzz  # noqa: E402
 
 
-@pytest.mark.parametrize("per_joint", [False, True], ids=["default-plant", "per-joint-plant"])
-def test_fixed_sample_of_operator_sequences_violates_nothing(per_joint):
+@pytest.mark.parametrize("uniform", [False, True], ids=["per-joint-plant", "uniform-plant"])
+def test_fixed_sample_of_operator_sequences_violates_nothing(uniform):
     """The same sequences on both plants; on the per-joint one with its controller (joint feedforward, dead-band
     compensation), whose command must keep the same limits."""
-    counts = runtime_fuzz.run_range(seed=20261123, start=0, stop=60, per_joint=per_joint)
+    counts = runtime_fuzz.run_range(seed=20261123, start=0, stop=60, uniform=uniform)
     for mode, row in counts.items():
         assert row[0] == 10 and row[1] > 10 * 50, (mode, row)  # every mode got its sequences, and they ran
         violations = dict(zip(runtime_fuzz.VIOLATIONS, row[2:], strict=True))

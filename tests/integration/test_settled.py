@@ -129,13 +129,14 @@ def test_overshoot_against_the_logged_tip_path(lab):
     assert s.residual_swing_rad == run.arrays["swing_rad"][k] < 0.03
 
 
-def test_on_the_per_joint_plant_the_slowest_joints_jerk_box_settles_sooner(lab):
-    """Each joint its own oil-spring frequency (the lab slew 1.13 Hz): the plan whose jerk box is one period of that
-    mode (``CraneModel.slowest_joint_period_s``) is longer than the 0.4 s box's but settles sooner, within issue 22's
-    bounds (settle / planned <= 1.35, tip past the end point <= 5 cm), while the 0.4 s plan rings the slew and
-    overshoots (docs/runtime.md, "Per-joint natural frequencies"). Settled is re-checked here from the log."""
+def test_on_the_default_plant_the_slowest_joints_jerk_box_settles_sooner(lab):
+    """The default plant, each joint its own oil-spring frequency (the lab slew 1.13 Hz): the plan whose jerk box is
+    one period of that mode (``CraneModel.slowest_joint_period_s``) is longer than the 0.4 s box's but settles sooner,
+    within issue 22's bounds (settle / planned <= 1.35, tip past the end point <= 5 cm), while the 0.4 s plan rings
+    the slew and overshoots (docs/runtime.md, "Per-joint natural frequencies"). Settled is re-checked here from the
+    log."""
     crane, scene = lab
-    options = ExecuteOptions(time_limit_s=40.0).with_per_joint_stiffness()
+    options = ExecuteOptions(time_limit_s=40.0)  # the default: the per-joint plant with the controller for it
     assert options.controller.swing_damping == PER_JOINT_SWING_DAMPING and options.sim.natural_freq_hz is None
     box = crane.model.slowest_joint_period_s()
     runs = {}

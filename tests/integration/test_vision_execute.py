@@ -157,13 +157,22 @@ def _closed_forms(crane: Crane, q: tuple, axes: tuple, goal, target, k_v) -> dic
 
 
 def _expected(crane: Crane, q: tuple, axes: tuple, c_a: float, goal, target, k_v) -> np.ndarray:
-    """Each source's rate from its definition, summed (000 eq. 4), resolved (000 eq. 2) with numpy."""
+    """Each source's rate from its definition, summed (000 eq. 4), resolved (000 eq. 2) with numpy, and raised past
+    the valves' dead band as the controller's step does for every command.
+
+    The dead band's inverse (``ControllerParams.valve_deadband_frac``, default the plant's 0.005 of each joint's
+    speed ``d``): a joint rate ``u`` with ``|u| < d`` becomes ``clip(2 u, -d, d)``, any other stays ``u``
+    (``motionlib.control.command.valve_deadband_inverse``'s definition, written out here).
+    """
     r = _closed_forms(crane, q, axes, goal, target, k_v)
     ps = c_a * (r["position"] + r["vision"]) + r["stick"] + r["accommodation"]
     jac = crane.jacobian(np.array(q))
-    w = np.minimum(-crane.qd_min, crane.qd_max) ** 2  # nominal weights, q away from the limits
+    speed = np.minimum(-crane.qd_min, crane.qd_max)
+    w = speed**2  # nominal weights, q away from the limits
     prm = ControllerParams()
-    return resolve_rate(jac, ps, w, None, prm.sigma_threshold, prm.damping_max).qd
+    qd = resolve_rate(jac, ps, w, None, prm.sigma_threshold, prm.damping_max).qd
+    d = prm.valve_deadband_frac * speed
+    return np.where(np.abs(qd) >= d, qd, np.clip(2.0 * qd, -d, d))
 
 
 Q = (0.3, 0.5, -1.3, 0.3)

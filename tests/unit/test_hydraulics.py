@@ -97,12 +97,16 @@ def test_valve_lag_and_compliance_match_linear_system(lab):
 
 @pytest.mark.parametrize("path", STIFF_FILES, ids=lambda p: p.stem)
 def test_crane_file_gives_the_documented_frequencies(path):
-    """The crane file's oil data give the frequencies docs/runtime.md documents; the plant uses them."""
+    """The crane file's oil data give the frequencies docs/runtime.md documents; the default plant uses them
+    (``SimParams(natural_freq_hz=None)``), the uniform one (``natural_freq_hz=2.5``) 2.5 Hz for every joint."""
     w = _file_omega(path)
     np.testing.assert_allclose(w / (2 * math.pi), DOCUMENTED_HZ[path.stem], atol=0.005)
     crane = Crane.load(path)
     np.testing.assert_allclose(crane.model.natural_frequencies_rad_s(with_rotator=True), w, rtol=1e-12)
-    assert SimulatedCrane(crane, Q_MID).omega_rad_s == (2 * math.pi * DEFAULT_NATURAL_FREQ_HZ,) * len(w)  # default
+    assert SimParams().natural_freq_hz is None
+    np.testing.assert_allclose(SimulatedCrane(crane, Q_MID).omega_rad_s, w, rtol=1e-12)  # the default: per joint
+    uniform = SimulatedCrane(crane, Q_MID, SimParams(natural_freq_hz=DEFAULT_NATURAL_FREQ_HZ))
+    assert uniform.omega_rad_s == (2 * math.pi * DEFAULT_NATURAL_FREQ_HZ,) * len(w)
     sim = SimulatedCrane(crane, Q_MID, SimParams(natural_freq_hz=None))
     np.testing.assert_allclose(sim.omega_rad_s, w, rtol=1e-12)
     np.testing.assert_allclose(sim.joints.w2, w**2, rtol=1e-12)
@@ -179,10 +183,19 @@ def test_pump_saturation_shares_flow_proportionally(lab):
     u = np.array([lab.qd_max[0], lab.qd_min[1], lab.qd_max[2], lab.qd_min[3]])
     k = q_pump / float(disp @ np.abs(u))
     assert k < 0.6  # the pump does saturate
+    # long enough for the slowest joint's ringing (the default plant: each joint its own frequency, the slew's
+    # 1.13 Hz the lowest) to decay to 1e-4 of the step, e^{-zeta w_min t} = 1e-4: 3.7 s (0.4 s on the 2.5 Hz plant)
+    w_min = float(min(lab.model.natural_frequencies_rad_s()))
+    settle_s = math.log(1e4) / (SimParams().damping_ratio * w_min)
+    # the telescope drawn out so that it runs in for settle_s without reaching its end stop (0.19 m/s for 3.7 s)
+    q0 = np.array([*Q_MID[:3], lab.q_max[3] - 0.01])
+    assert lab.q_min[3] < q0[3] + k * u[3] * settle_s
     for model in ("second_order", "first_order"):
         prm = SimParams(model=model, load_mass_kg=0.0, deadband_frac=0.0)
-        sim = SimulatedCrane(lab, Q_MID, prm)
-        _, v = _velocities(sim, u, 1.5)
+        sim = SimulatedCrane(lab, q0, prm)
+        if model == "second_order":
+            assert min(sim.omega_rad_s) == pytest.approx(w_min, rel=1e-12)
+        _, v = _velocities(sim, u, settle_s)
         np.testing.assert_allclose(v[-1], k * u, rtol=2e-3)
         np.testing.assert_allclose(sim.joints.share, k, rtol=1e-9)
         assert sim.peak_pump_ratio <= 1.0 + 1e-12
@@ -211,7 +224,8 @@ def test_swinging_load_acts_back_on_the_telescope(lab):
         dq.append(sim.q[3] - q0[3])
         th.append(math.atan2(rel[0], -rel[2]))
     dq, th = np.array(dq), np.array(th)
-    w = 2 * math.pi * prm.natural_freq_hz
+    w = sim.omega_rad_s[3]  # the telescope's own oil-spring frequency (the default plant's: lab 8.46 Hz)
+    assert w == pytest.approx(lab.model.natural_frequencies_rad_s()[3], rel=1e-12)
     quasi = lab.model.load_mass * prm.gravity_m_s2 * th / lab.model.joint_inertia[3] / w**2  # the crane file's
     late = np.array(ts) > 1.0  # after the initial transient
     assert np.corrcoef(dq[late], quasi[late])[0, 1] > 0.9  # outward swing pulls the telescope out

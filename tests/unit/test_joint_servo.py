@@ -31,39 +31,79 @@ TAU = 0.04
 Q0 = np.array([1.2, 0.5, -0.6, 1.0])  # forwarder: tip ~6.6 m out
 
 
+def _slew(u_c: float) -> np.ndarray:
+    """The servo's input (the joint commands) with the slew commanded ``u_c`` and the other joints still."""
+    return np.array([u_c, 0.0, 0.0, 0.0])
+
+
 def test_model_follows_its_transfer_function():
     """Eq. (1) driven by a step of the command, against scipy's step response of
     omega^2 / ((tau s + 1)(s^2 + 2 zeta_m omega s + omega^2)); the servo's output is the command plus its errors."""
     w = 5.0
     servo = servo_array(True, w, TAU, DT)
-    servo_command(servo, 0.0, 0.0, 0.0)  # starts at rest
+    servo_command(servo, _slew(0.0), 0.0, 0.0)  # starts at rest
     n = 400
     vm = []
     for _ in range(n):
-        servo_command(servo, 0.1, 0.0, 0.0)
+        servo_command(servo, _slew(0.1), 0.0, 0.0)
         vm.append(servo[SERVO.index("v_m")])
     t = np.arange(n + 1) * DT  # from the step on
     _, ref = signal.step(signal.lti([w * w], np.polymul([TAU, 1.0], [1.0, 2 * MODEL_DAMPING * w, w * w])), T=t)
     assert np.max(np.abs(np.array(vm) - 0.1 * ref[1:])) < 0.005 * 0.1  # 0.5 % of the step (measured 0.26 %)
     # a measured state away from the model's: u = u_c + k_v (v_m - v) + (k_s / omega)(s_m - s)
     vm0, sm0 = servo[SERVO.index("v_m")], servo[SERVO.index("s_m")]
-    u = servo_command(servo, 0.1, 0.05, 0.3)
+    u = servo_command(servo, _slew(0.1), 0.05, 0.3)
     assert u == pytest.approx(0.1 + VELOCITY_GAIN * (vm0 - 0.05) + DRIVE_GAIN / w * (sm0 - 0.3), rel=1e-12)
     assert servo[VALVE_COMMAND] == u
 
 
 def test_passes_the_command_through_when_off_or_not_measured():
     off = servo_array(False, 5.0, TAU, DT)
-    assert servo_command(off, 0.2, 0.0, 1.0) == 0.2
+    assert servo_command(off, _slew(0.2), 0.0, 1.0) == 0.2
     on = servo_array(True, 5.0, TAU, DT)
-    servo_command(on, 0.0, 0.0, 0.0)
-    servo_command(on, 0.3, 0.0, 0.0)
-    assert servo_command(on, 0.2, 0.1, math.nan) == 0.2  # no drive measured: through, and the model restarts
+    servo_command(on, _slew(0.0), 0.0, 0.0)
+    servo_command(on, _slew(0.3), 0.0, 0.0)
+    assert servo_command(on, _slew(0.2), 0.1, math.nan) == 0.2  # no drive measured: through, and the model restarts
     assert on[SERVO.index("started")] == 0.0
-    assert servo_command(on, 0.2, 0.1, 0.5) == 0.2  # restarted at the measured state: no error yet
+    assert servo_command(on, _slew(0.2), 0.1, 0.5) == 0.2  # restarted at the measured state: no error yet
     assert on[SERVO.index("v_m")] > 0.1  # and driven by the command from there
     with pytest.raises(InputError, match="servo"):
         servo_array(True, 0.0, TAU, DT)
+
+
+def test_the_model_follows_what_the_saturated_pump_delivers():
+    """Pump saturated (the joints ask 1.25 x its flow, rotator included): every joint gets ``k = Q / sum d_i |u_i|``
+    = 0.8 of its command (the flow-sharing rule, computed here by hand), so (1) follows ``k u_c``: scipy's step
+    response scaled by ``k``; a slew moving at ``k u_c`` with the drive at rest gets the command itself (the servo
+    adds nothing), one moving at ``u_c`` is held back by ``k_v (1 - k) u_c``. Below the pump's flow, ``k = 1``."""
+    w = 5.0
+    d = np.array([2.0e-3, 1.5e-3, 1.0e-3, 0.5e-3, 0.2e-3])
+    u = np.array([0.2, -0.3, 0.4, 0.1, -0.5])  # q1-q4 and the rotator
+    q_pump = float(np.abs(u) @ d) / 1.25  # the joints ask 1.25 Q: k = 0.8
+    servo = servo_array(True, w, TAU, DT, pump_flow=q_pump, displacement=d)
+    servo_command(servo, np.zeros(5), 0.0, 0.0)  # starts at rest
+    n = int(8.0 / DT)  # 8 s: (1) settled (its slowest mode decays as exp(-zeta_m omega t) = e^-36)
+    vm = []
+    for _ in range(n):
+        servo_command(servo, u, 0.0, 0.0)
+        vm.append(servo[SERVO.index("v_m")])
+    t = np.arange(n + 1) * DT
+    _, ref = signal.step(signal.lti([w * w], np.polymul([TAU, 1.0], [1.0, 2 * MODEL_DAMPING * w, w * w])), T=t)
+    assert np.max(np.abs(np.array(vm) - 0.8 * u[0] * ref[1:])) < 0.005 * 0.8 * u[0]  # as the unsaturated test
+    assert servo_command(servo, u, 0.8 * u[0], 0.0) == pytest.approx(u[0], abs=1e-9)  # at k u_c: nothing added
+    assert servo_command(servo, u, u[0], 0.0) == pytest.approx(u[0] - VELOCITY_GAIN * 0.2 * u[0], abs=1e-9)
+    # without the rotator's command the joints ask less: k = Q / (demand - d_5 |u_5|), still saturated
+    k4 = q_pump / float(np.abs(u[:4]) @ d[:4])
+    assert k4 < 1.0
+    for _ in range(n):
+        servo_command(servo, u[:4], k4 * u[0], 0.0)
+    assert servo_command(servo, u[:4], k4 * u[0], 0.0) == pytest.approx(u[0], abs=1e-9)
+    # below the pump's flow every joint gets its command
+    for _ in range(n):
+        servo_command(servo, 0.5 * u, 0.5 * u[0], 0.0)
+    assert servo[SERVO.index("v_m")] == pytest.approx(0.5 * u[0], abs=1e-9)
+    with pytest.raises(InputError, match="servo"):
+        servo_array(True, w, TAU, DT, pump_flow=q_pump, displacement=(1e-3, 0.0))
 
 
 def _decay_rate(x: np.ndarray, dt: float) -> float:
@@ -124,7 +164,7 @@ def test_damps_the_coupled_slew_and_swing_as_the_linear_model_predicts(servo):
     box = servo_array(servo, crane.model.natural_frequencies_rad_s()[0], TAU, DT)
     x = []
     for _ in range(int(10.0 / DT)):
-        u = servo_command(box, 0.0, sim.qd[0], sim.drive[0])
+        u = servo_command(box, _slew(0.0), sim.qd[0], sim.drive[0])
         sim.advance([u, 0.0, 0.0, 0.0], DT)
         x.append(float(np.subtract(sim.grapple, sim.tip) @ tangential))
     measured, predicted = _decay_rate(np.array(x), DT), _linear_decay(crane, reach, servo)
@@ -160,7 +200,8 @@ def test_a_stop_is_the_plants_own():
     stop (``valve_cmd == qd_cmd`` from the stale step on), and the slew stops within 2 % of the distance it takes
     without the servo."""
     crane = Crane.load("forwarder")
-    options = ExecuteOptions().with_per_joint_stiffness()
+    options = ExecuteOptions()  # the default: the per-joint plant, each joint its own frequency
+    assert options.sim.natural_freq_hz is None and options.controller.slew_servo
     travel = {}
     for servo in (False, True):
         ctl = SharedController(crane, "M1", replace(options.controller, slew_servo=servo))
@@ -177,3 +218,18 @@ def test_a_stop_is_the_plants_own():
             peak = max(peak, sim.q[0] - q_stop)
         travel[servo] = peak
     assert travel[True] == pytest.approx(travel[False], rel=0.02)  # measured 0.302 against 0.306 rad
+
+
+def test_the_fast_path_bypasses_the_model():
+    """``u_f`` (the swing damping's share) drives the valve's lag only, ``tau_v y_f' = u_f - y_f``, and (1) gets the
+    rest: a step of the command all on the fast path leaves (1) at rest, and the output is eq. (3) with
+    ``y_f = u_f (1 - exp(-t / tau_v))`` (exact at the periods) and ``y_f'`` its change over the period."""
+    w = 5.0
+    servo = servo_array(True, w, TAU, DT)
+    servo_command(servo, _slew(0.0), 0.0, 0.0, 0.0)  # starts at rest
+    beta = 1.0 - math.exp(-DT / TAU)
+    for k in range(20):
+        y_f = 0.1 * (1.0 - math.exp(-k * DT / TAU))
+        u = servo_command(servo, _slew(0.1), 0.0, 0.0, 0.1)
+        assert u == pytest.approx(0.1 + VELOCITY_GAIN * y_f + DRIVE_GAIN / w * (0.1 - y_f) * beta / DT, rel=1e-9)
+        assert servo[SERVO.index("v_m")] == 0.0 and servo[SERVO.index("s_m")] == 0.0

@@ -7,7 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from motionlib.control.accommodation import AccommodationOptions, contact_loop_warning
+from motionlib.control.accommodation import (
+    AccommodationOptions,
+    ContactPlant,
+    contact_loop_warning,
+    contact_mode_damping,
+)
 from motionlib.control.mixer import Approach, Mixer, MixerParams, ObstacleGuard
 from motionlib.errors import InputError
 from motionlib.model.collision import CollisionChecker
@@ -209,3 +214,19 @@ def test_contact_loop_warning_against_the_closed_form():
             a = 0.8 / (0.8 * bound) * stiffness * 0.005
             rings = bool(np.abs(np.roots([1.0, -1.0, a]).imag).max() > 1e-6)
             assert bool(contact_loop_warning(options, 0.8, stiffness, 0.005)) == rings, (bound, stiffness)
+
+
+def test_contact_mode_damping_against_a_one_joint_closed_form():
+    """The crane-aware contact check on one joint with the loop open (``K_F = 0``).
+
+    Reference: with ``q'' = s + F / M``, ``s' = w^2 (x - q') - 2 zeta w q''``, ``F = -k q - c q'`` and the valve
+    state decaying on its own, ``lambda (lambda^2 + (2 zeta w + c / M) lambda + w^2 + k / M) = 0``: the contact
+    mode's damping ratio is ``(2 zeta w + c / M) / (2 sqrt(w^2 + k / M))`` (the valve's real pole: 1). A gain
+    that closes the loop lowers it (module docstring) and an unstable one gives a negative ratio.
+    """
+    w, zeta, m, k, c = 30.0, 0.1, 300.0, 5e4, 4e3
+    plant = ContactPlant((1.0,), (1.0,), (m,), (w,), zeta, 0.04, 0.005, 0.0, k, c)
+    closed = (2 * zeta * w + c / m) / (2 * np.sqrt(w * w + k / m))
+    assert contact_mode_damping(0.0, plant) == pytest.approx(min(1.0, closed), rel=1e-9)
+    assert contact_mode_damping(1e-4, plant) < contact_mode_damping(0.0, plant)
+    assert contact_mode_damping(1e-2, plant) < 0.0

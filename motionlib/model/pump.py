@@ -18,6 +18,10 @@ section's flow drops by the same factor, independently of its load (the flow-sha
 property of LUDV valves as described in the valve makers' literature, e.g. Bosch Rexroth's
 LUDV control blocks). The exact factor is the idealisation of that behaviour; the
 idealisation (no pressure dynamics of the pump's regulator) is an assumption.
+
+The rule belongs to the machine, so it lives with the crane's model: the simulated crane's actuators
+apply it (:mod:`motionlib.sim.hydraulics`, step 2) and the slew's servo predicts with it what the pump
+will deliver of the controller's commands (:mod:`motionlib.control.joint_servo`).
 """
 
 from __future__ import annotations
