@@ -48,7 +48,7 @@ states and joystick samples. One step:
    brakes at up to ``qdd_max`` on its own. The command is always finite. An accommodation source's change
    passes the ramp, bounded (at most ``qdd_max dt`` more per joint and step,
    :meth:`SharedController._accommodation_pass`, :mod:`motionlib.control.accommodation`, "The command ramp").
-   **The slew's servo** (``ControllerParams.slew_servo``, off by default): the slew's valve gets that
+   **The slew's servo** (``ControllerParams.slew_servo``, on by default): the slew's valve gets that
    command plus its rate's and drive's errors from a well-damped model of the slew
    (:mod:`motionlib.control.joint_servo`, with ``CraneState.drive``): the step returns the valves' command
    (``ControllerStatus.valve_cmd``), the command itself is ``ControllerStatus.qd_cmd``. Stopped (stale input,

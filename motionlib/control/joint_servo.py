@@ -38,8 +38,8 @@ carry gravity, which (1) does not, so the servo leaves them alone.
 
 The swing damping's share ``u_f`` of the command (the slew entry of its tip velocity ``k_s r_h`` resolved with the
 same weights and damping: :data:`~motionlib.control.command.COMMAND_STATE` ``swing_slew``) takes a fast path
-instead: (1) is driven by ``u_c - u_f``, and ``u_f`` by the valve's lag only, ``tau_v y_f' = u_f - y_f``, which the
-slew should follow at once::
+instead: (1) is driven by ``u_c - u_f`` in place of ``u_c``, and ``u_f`` by the valve's lag only, ``tau_v y_f' =
+k_hat u_f - y_f``, which the slew should follow at once::
 
     u = u_c + k_v (v_m + y_f - v) + (k_s / omega) (s_m + y_f' - s)                                        (3)
 
