@@ -295,21 +295,23 @@ class ContactPlant:
 
 def lowest_damped_bound(options: AccommodationOptions, v_stick_m_s: float, plant: ContactPlant,
                         zeta_min: float = CONTACT_DAMPING_MIN) -> float:
-    """The lowest force bound (N, to 1 %) whose ``K_F`` gives the contact mode at least ``zeta_min``.
+    """The lowest force bound (N, to 1 %) from which up every bound gives the contact mode at least ``zeta_min``.
 
-    The damping falls as ``K_F = v_stick / (margin x bound)`` rises (module docstring); bisection on the
-    bound between 1 N and 1e6 N (the range of ``AccommodationOptions.force_bound_n``).
+    ``K_F = v_stick / (margin x bound)`` (:func:`accommodation_source`). The damping falls as ``K_F`` rises, but
+    not always monotonically (on the forwarder 0.056, 0.033, 0.056 at 1000, 2000, 3000 N at one pose), so the
+    bounds are walked down from 1e6 N (the top of ``AccommodationOptions.force_bound_n``) in steps of 1 % until
+    one fails; the last that passed is returned (1e6 when none passes, 1 N at the bottom of the range).
     """
     def ok(bound: float) -> bool:
         return contact_mode_damping(v_stick_m_s / (options.margin * bound), plant) >= zeta_min
 
-    lo, hi = 1.0, 1e6
-    if ok(lo):
-        return lo
-    while hi / lo > 1.01:
-        mid = math.sqrt(lo * hi)
-        lo, hi = (lo, mid) if ok(mid) else (mid, hi)
-    return hi
+    bound = 1e6
+    while bound > 1.0:
+        lower = max(1.0, bound / 1.01)
+        if not ok(lower):
+            return bound
+        bound = lower
+    return bound
 
 
 def contact_loop_warning(options: AccommodationOptions, v_stick_m_s: float, stiffness_n_m: float, dt_s: float,

@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 
 from motionlib.control.accommodation import (
+    CONTACT_DAMPING_MIN,
     AccommodationOptions,
     ContactPlant,
     contact_loop_warning,
     contact_mode_damping,
+    lowest_damped_bound,
 )
 from motionlib.control.mixer import Approach, Mixer, MixerParams, ObstacleGuard
 from motionlib.errors import InputError
@@ -230,3 +232,19 @@ def test_contact_mode_damping_against_a_one_joint_closed_form():
     assert contact_mode_damping(0.0, plant) == pytest.approx(min(1.0, closed), rel=1e-9)
     assert contact_mode_damping(1e-4, plant) < contact_mode_damping(0.0, plant)
     assert contact_mode_damping(1e-2, plant) < 0.0
+
+
+def test_lowest_damped_bound_is_where_every_higher_bound_passes(lab):
+    """The bound the crane-aware warning names: every bound above it passes ``CONTACT_DAMPING_MIN``, the next 1 %
+    below fails. Reference: ``contact_mode_damping`` evaluated directly on a dense grid of bounds (brute force) for
+    the lab crane's default plant at the grapple on the ground 2.5 m out."""
+    from motionlib.sim.execute import ExecuteOptions, contact_plant
+
+    q = lab.ik([2.5, 0.4, lab.model.grapple_length], 0.3)
+    plant = contact_plant(ExecuteOptions(), lab, q)
+    options, v = AccommodationOptions(3000.0), 0.8
+    lowest = lowest_damped_bound(options, v, plant)
+    zeta = [contact_mode_damping(v / (options.margin * b), plant) for b in np.geomspace(lowest, 1e6, 400)]
+    assert min(zeta) >= CONTACT_DAMPING_MIN
+    assert contact_mode_damping(v / (options.margin * lowest / 1.01), plant) < CONTACT_DAMPING_MIN
+    assert 500.0 < lowest < 3000.0  # the lab's default bound passes, a soft one does not (docs: ~890-1184 N)
