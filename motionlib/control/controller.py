@@ -75,7 +75,6 @@ from typing import Any
 import numpy as np
 
 from ..errors import InputError
-from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import TipKinematics, Vec3, Vec4, tip_speed
 from ..model.kinematics import Crane
 from ..planning.trajectory import Trajectory
@@ -330,11 +329,7 @@ class SharedController:
         With ``joint_natural_freq_hz=None`` each joint's from the crane file's oil springs
         (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`), 2.5 Hz on a file without them.
         """
-        hz = self.params.joint_natural_freq_hz
-        omega = self.crane.model.natural_frequencies_rad_s() if hz is None else None
-        if omega is None:
-            return (2.0 * math.pi * (hz or DEFAULT_NATURAL_FREQ_HZ),) * 4
-        return tuple(float(w) for w in omega[:4])
+        return self.crane.model.joint_frequencies_rad_s(self.params.joint_natural_freq_hz)
 
     def joint_model_damping(self) -> tuple[float, float, float, float]:
         """The damping ratios (4,) of the joints' model as the joints' feedforward inverts it: ``joint_damping_ratio``,

@@ -269,6 +269,23 @@ class CraneModel:
             mass.append(self.rotator_inertia)
         return tuple(natural_frequency_rad_s(beta, di, vi, ii) for di, vi, ii in zip(d, vol, mass, strict=True))
 
+    def joint_frequencies_rad_s(self, natural_freq_hz: float | None = None, with_rotator: bool = False,
+                                inertia: tuple[float, ...] | None = None) -> tuple[float, ...]:
+        """Each joint's natural frequency (rad/s) as a joint model takes it: q1-q4, then the rotator's with
+        ``with_rotator``.
+
+        ``natural_freq_hz`` (Hz) for every joint; None: each joint's own from the oil springs
+        (:meth:`natural_frequencies_rad_s`, with ``inertia``), or :data:`DEFAULT_NATURAL_FREQ_HZ` for every joint
+        on a file without them. The one rule of the simulated plant (``SimParams.natural_freq_hz``) and the
+        controller's joint model (``ControllerParams.joint_natural_freq_hz``).
+        """
+        n = 5 if with_rotator else 4
+        own = self.natural_frequencies_rad_s(with_rotator=with_rotator, inertia=inertia)
+        if natural_freq_hz is not None or own is None:
+            hz = natural_freq_hz if natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
+            return (2.0 * math.pi * hz,) * n
+        return tuple(float(w) for w in own[:n])
+
     def slowest_joint_period_s(self) -> float:
         """One period ``2 pi / min(omega_i)`` (s) of the slowest arm joint's oil-spring mode.
 

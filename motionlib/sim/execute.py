@@ -288,7 +288,7 @@ def contact_plant(options: ExecuteOptions, crane: Crane, q: Any) -> ContactPlant
     if sp.model != "second_order" or inertia is None or not mass:
         return None
     q = check_vector(q, 4, "q")
-    omega = sp.joint_omegas_rad_s(model, inertia)
+    omega = model.joint_frequencies_rad_s(sp.natural_freq_hz, inertia=tuple(inertia))
     jac = np.asarray(crane.jacobian(q), dtype=float)
     weights = tuple((np.asarray(crane.qd_both, dtype=float)[:4] ** 2).tolist())
     direction = resolve_rate_fast(tuple(jac.reshape(-1).tolist()), (0.0, 0.0, 1.0), weights, (0.0, 0.0, 0.0, 0.0),

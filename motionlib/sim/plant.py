@@ -121,7 +121,7 @@ from ..checks import check_int, check_params, check_scalar, check_vector, param
 from ..control.control_types import GRAVITY_M_S2, CraneState
 from ..errors import InputError
 from ..jit import njit
-from ..model.crane_model import DEFAULT_NATURAL_FREQ_HZ, MAX_NATURAL_FREQ_HZ
+from ..model.crane_model import MAX_NATURAL_FREQ_HZ
 from ..model.fast_kinematics import geometry, tip_point, tip_point_jacobian
 from ..model.hanging_body import HangingBody, HeldLog
 from ..model.kinematics import Crane
@@ -158,11 +158,12 @@ class SimParams:
         the crane file's ``hydraulics.bulk_modulus``, ``displacement``, ``oil_volume`` and the joint inertia the
         plant uses (``joint_inertia`` below, by default the file's nominal, configuration-independent
         ``dynamics.joint_inertia``); a crane file without ``oil_volume`` then gives every joint
-        :data:`DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz. A number: every joint that frequency, e.g. 2.5 Hz (assumption:
-        the lab boom's 2.6 Hz), the uniform plant 000's experiment and the controller's tuning were first run on
-        (:meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`). The grapple's mass on the rod
-        lowers the loaded frequency further through its reaction (module docstring). 000 section 4.1 puts the
-        arm's undesired oscillations between 10 ms and 0.5 s.
+        :data:`~motionlib.model.crane_model.DEFAULT_NATURAL_FREQ_HZ` = 2.5 Hz
+        (:meth:`~motionlib.model.crane_model.CraneModel.joint_frequencies_rad_s`). A number: every joint that
+        frequency, e.g. 2.5 Hz (assumption: the lab boom's 2.6 Hz), the uniform plant 000's experiment and the
+        controller's tuning were first run on (:meth:`~motionlib.sim.execute.ExecuteOptions.with_uniform_stiffness`).
+        The grapple's mass on the rod lowers the loaded frequency further through its reaction (module docstring).
+        000 section 4.1 puts the arm's undesired oscillations between 10 ms and 0.5 s.
     damping_ratio : float
         Damping ratio ``zeta`` of that response. Assumption: hydraulic drives are lightly
         damped (Merritt 1967: 0.1-0.2 for the open loop); the joint controller adds damping; 0.35.
@@ -249,22 +250,6 @@ class SimParams:
             inertia = check_vector(self.joint_inertia, 4, "joint_inertia")
             if not np.all(inertia > 0.0):
                 raise InputError(f"joint_inertia: expected 4 positive values, got {list(self.joint_inertia)}")
-
-    def joint_omegas_rad_s(self, model: Any, inertia: Sequence[float] | None,
-                           with_rotator: bool = False) -> tuple[float, ...]:
-        """Each joint's natural frequency (rad/s) on this plant: q1-q4, then the rotator's with ``with_rotator``.
-
-        ``natural_freq_hz`` for every joint; None: each joint's own from the crane file ``model``'s oil springs and
-        ``inertia`` (:meth:`~motionlib.model.crane_model.CraneModel.natural_frequencies_rad_s`), or
-        :data:`DEFAULT_NATURAL_FREQ_HZ` for every joint on a file without them.
-        """
-        n = 5 if with_rotator else 4
-        own = model.natural_frequencies_rad_s(with_rotator=with_rotator,
-                                              inertia=tuple(inertia) if inertia is not None else None)
-        if self.natural_freq_hz is not None or own is None:
-            hz = self.natural_freq_hz if self.natural_freq_hz is not None else DEFAULT_NATURAL_FREQ_HZ
-            return (2.0 * math.pi * hz,) * n
-        return tuple(float(w) for w in own[:n])
 
 
 _NO_PLANES = np.zeros((0, 4))
@@ -712,7 +697,8 @@ class SimulatedCrane:
         fx, fy, fz = pend[ROD_FORCE].tolist()
         joint_load(jac, fx, fy, fz, inv_inertia, f)
         extra = (self.rotator_q,) if rot is not None else ()
-        self.omega_rad_s: tuple[float, ...] = prm.joint_omegas_rad_s(model, inertia, with_rotator=rot is not None)
+        self.omega_rad_s: tuple[float, ...] = model.joint_frequencies_rad_s(
+            prm.natural_freq_hz, with_rotator=rot is not None, inertia=tuple(inertia) if inertia is not None else None)
         # the relief valves: the actuator's force per unit inertia C_i / I_i (hydraulics step 4), or without
         # the crane file's relief_pressure the older net-acceleration bound
         capacity = model.joint_capacities(with_rotator=rot is not None)

@@ -11,10 +11,10 @@ import pytest
 import yaml
 from scipy import signal
 
-from motionlib.model.crane_model import CRANES_DIR, natural_frequency_rad_s
+from motionlib.model.crane_model import CRANES_DIR, DEFAULT_NATURAL_FREQ_HZ, natural_frequency_rad_s
 from motionlib.model.kinematics import Crane
 from motionlib.sim.hydraulics import HydraulicJoints, actuators_substep, speed_overshoot_bound
-from motionlib.sim.plant import DEFAULT_NATURAL_FREQ_HZ, SimParams, SimulatedCrane
+from motionlib.sim.plant import SimParams, SimulatedCrane
 
 Q_MID = np.array([0.0, 0.5, -1.4, 0.4])  # lab crane, well inside the limits
 H = 0.001
